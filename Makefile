@@ -1,0 +1,27 @@
+# Two entry points (see README): `make demo` runs the main job, `make test` runs the tests.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+DATASETS ?= ../shared/datasets
+
+.PHONY: demo test bench install clean
+
+$(BIN)/fuzzybrep: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	@touch $@
+
+install: $(BIN)/fuzzybrep
+
+demo: install
+	$(BIN)/fuzzybrep build $(DATASETS)/carmen/intel-corrected.log.gz --out out/intel.json --plot out/intel.png
+
+test: install
+	$(BIN)/python -m pytest -q
+
+bench: install
+	$(BIN)/python benchmarks/run.py
+
+clean:
+	rm -rf $(VENV) out .pytest_cache

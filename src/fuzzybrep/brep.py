@@ -1,0 +1,251 @@
+"""The crisp B-rep map: one principal polygon bounding the free space, hole polygons for obstacles.
+
+Each boundary is a ``Ring``: its vertex table (Table 3.1) as an (n, 2) array, its edge table
+(Table 3.2) implied by the order (edge i runs from vertex i to vertex i+1, the last edge closes
+the ring), one kind per edge (obstacle or frontier) and one membership-function index (FM) per
+vertex. The principal polygon runs counter-clockwise and holes clockwise, so the free space is
+always on the left of every edge.
+
+If the explored space comes out in several pieces, the largest is the principal region and the
+others are kept as further regions, largest first: no data is dropped. Thesis 3.1.1-3.1.2, 3.2.3.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from .errors import GeometryError
+
+#: Edge kinds: an obstacle edge is where a laser return was seen; a frontier edge is the limit of
+#: what was seen (no return, maximum range, the side of a ray past an occluding object).
+OBSTACLE = np.uint8(0)
+FRONTIER = np.uint8(1)
+KIND_NAMES = {int(OBSTACLE): "obstacle", int(FRONTIER): "frontier"}
+
+
+@dataclass(frozen=True, eq=False)
+class Ring:
+    """One closed boundary: the vertex table with its edge table implied.
+
+    vertices (n, 2) float64, not repeating the first vertex at the end.
+    kinds    (n,) uint8: kind of edge i = (vertex i, vertex i+1 mod n).
+    fm       (n,) int32: membership-function index of vertex i (Table 4.1's FM column, 1-based).
+    """
+
+    vertices: np.ndarray
+    kinds: np.ndarray = field(default=None)  # type: ignore[assignment]
+    fm: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        v = np.array(self.vertices, dtype=np.float64, copy=True).reshape(-1, 2)
+        n = len(v)
+        k = np.zeros(n, np.uint8) if self.kinds is None else np.array(self.kinds, dtype=np.uint8).reshape(-1)
+        f = np.ones(n, np.int32) if self.fm is None else np.array(self.fm, dtype=np.int32).reshape(-1)
+        if len(k) != n or len(f) != n:
+            raise GeometryError(f"{n} vertices but {len(k)} edge kinds and {len(f)} FM indices")
+        for a in (v, k, f):
+            a.setflags(write=False)
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "kinds", k)
+        object.__setattr__(self, "fm", f)
+
+    def __len__(self) -> int:
+        return len(self.vertices)
+
+    @property
+    def edges(self) -> np.ndarray:
+        """(n, 2) int: the edge table, Vstart and Vend indices of every edge (Table 3.2)."""
+        i = np.arange(len(self.vertices))
+        return np.column_stack((i, (i + 1) % len(i)))
+
+    @property
+    def signed_area(self) -> float:
+        """Shoelace area: positive for counter-clockwise rings."""
+        x, y = self.vertices[:, 0], self.vertices[:, 1]
+        return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+    def reversed(self) -> "Ring":
+        """The same ring in the other direction; edge kinds follow their edges."""
+        v = self.vertices[::-1]
+        # edge i of the reversed ring joins old vertices n-1-i and n-2-i, i.e. old edge n-2-i
+        k = np.roll(self.kinds[::-1], -1)
+        return Ring(v, k, self.fm[::-1])
+
+    def closed_coords(self) -> np.ndarray:
+        return np.vstack((self.vertices, self.vertices[:1]))
+
+    def equals_exactly(self, other: "Ring") -> bool:
+        return (
+            self.vertices.shape == other.vertices.shape
+            and np.array_equal(self.vertices, other.vertices)
+            and np.array_equal(self.kinds, other.kinds)
+            and np.array_equal(self.fm, other.fm)
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """One connected piece of free space: its outer boundary (shell) and its holes."""
+
+    shell: Ring
+    holes: tuple[Ring, ...] = ()
+
+    @property
+    def rings(self) -> tuple[Ring, ...]:
+        return (self.shell, *self.holes)
+
+    @property
+    def area(self) -> float:
+        return self.shell.signed_area + sum(h.signed_area for h in self.holes)
+
+    def to_shapely(self) -> shapely.Polygon:
+        return shapely.Polygon(self.shell.closed_coords(), [h.closed_coords() for h in self.holes])
+
+
+@dataclass(frozen=True, eq=False)
+class BRepMap:
+    """A crisp B-rep map: regions[0] holds the principal polygon and its holes (thesis 3.1.1).
+
+    Further regions are pieces of explored space not connected to the principal one, largest
+    first; they are kept so that nothing seen is dropped.
+    """
+
+    regions: tuple[Region, ...]
+    unit: str = "m"
+
+    @property
+    def principal(self) -> Ring:
+        return self.regions[0].shell
+
+    @property
+    def holes(self) -> tuple[Ring, ...]:
+        return self.regions[0].holes
+
+    @property
+    def rings(self) -> list[Ring]:
+        return [r for region in self.regions for r in region.rings]
+
+    @property
+    def n_vertices(self) -> int:
+        return sum(len(r) for r in self.rings)
+
+    @property
+    def n_holes(self) -> int:
+        return sum(len(region.holes) for region in self.regions)
+
+    @property
+    def area(self) -> float:
+        return sum(region.area for region in self.regions)
+
+    def ring_names(self) -> list[str]:
+        """Human names for rings in ``rings`` order: principal, hole 1, ..., piece 2, piece 2 hole 1."""
+        names = []
+        for k, region in enumerate(self.regions):
+            base = "principal" if k == 0 else f"piece {k + 1}"
+            names.append(base)
+            names += [f"{'' if k == 0 else base + ' '}hole {j + 1}" for j in range(len(region.holes))]
+        return names
+
+    def to_shapely(self) -> shapely.Polygon | shapely.MultiPolygon:
+        polys = [region.to_shapely() for region in self.regions]
+        return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
+
+    @classmethod
+    def from_shapely(cls, geom, unit: str = "m", min_area: float = 0.0) -> "BRepMap":
+        """Crisp map from a Shapely (Multi)Polygon: principal = largest piece, orientation fixed.
+
+        Pieces smaller than ``min_area`` are dropped (none by default). Raises GeometryError if
+        nothing with area is left or the geometry is invalid.
+        """
+        polys = [g for g in shapely.get_parts(_polygonal(geom)) if g.area > min_area]
+        if not polys:
+            raise GeometryError("the map has no free space with area")
+        polys.sort(key=lambda g: -g.area)
+        regions = []
+        for g in polys:
+            g = shapely.orient_polygons(g, exterior_cw=False)
+            shell = Ring(np.asarray(g.exterior.coords)[:-1])
+            holes = tuple(Ring(np.asarray(h.coords)[:-1]) for h in g.interiors)
+            regions.append(Region(shell, holes))
+        return cls(tuple(regions), unit)
+
+    def with_rings(self, rings: list[Ring]) -> "BRepMap":
+        """The same structure with new rings, given in ``rings`` order."""
+        it = iter(rings)
+        regions = tuple(Region(next(it), tuple(next(it) for _ in region.holes)) for region in self.regions)
+        return BRepMap(regions, self.unit)
+
+    def validate(self) -> None:
+        """Raise GeometryError naming the ring and vertex if any boundary is degenerate or invalid."""
+        for name, ring in zip(self.ring_names(), self.rings):
+            validate_ring(ring.vertices, name)
+        for k, region in enumerate(self.regions):
+            g = region.to_shapely()
+            if not g.is_valid:
+                reason = shapely.is_valid_reason(g)
+                raise GeometryError(f"invalid region: {reason}", ring="principal" if k == 0 else f"piece {k + 1}",
+                                    vertex=_vertex_near_reason(region, reason))
+            if region.shell.signed_area <= 0:
+                raise GeometryError("outer boundary must run counter-clockwise",
+                                    ring="principal" if k == 0 else f"piece {k + 1}")
+            for j, h in enumerate(region.holes):
+                if h.signed_area >= 0:
+                    raise GeometryError("hole must run clockwise", ring=f"hole {j + 1}")
+
+    def equals_exactly(self, other: "BRepMap") -> bool:
+        return (
+            self.unit == other.unit
+            and len(self.rings) == len(other.rings)
+            and [len(r.holes) for r in self.regions] == [len(r.holes) for r in other.regions]
+            and all(a.equals_exactly(b) for a, b in zip(self.rings, other.rings))
+        )
+
+
+def validate_ring(vertices: np.ndarray, name: str = "ring") -> None:
+    """Raise GeometryError naming the vertex if a ring is degenerate or self-intersecting."""
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise GeometryError(f"vertices must be an (n, 2) array, got shape {v.shape}", ring=name)
+    if len(v) < 3:
+        raise GeometryError(f"a polygon needs at least 3 vertices, got {len(v)}", ring=name)
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise GeometryError("coordinate is not finite", ring=name, vertex=int(np.argmax(bad)) + 1)
+    dup = np.all(v == np.roll(v, -1, axis=0), axis=1)
+    if dup.any():
+        i = int(np.argmax(dup))
+        raise GeometryError(f"repeats vertex {(i + 1) % len(v) + 1}", ring=name, vertex=i + 1)
+    ring = shapely.LinearRing(v)
+    if abs(shapely.area(shapely.Polygon(v))) == 0:
+        raise GeometryError("polygon has zero area (all vertices on one line)", ring=name)
+    if not ring.is_simple:
+        reason = shapely.is_valid_reason(shapely.Polygon(v))
+        raise GeometryError(f"self-intersecting: {reason}", ring=name, vertex=_nearest_vertex(v, reason))
+
+
+def _polygonal(geom):
+    """Only the polygonal parts of a geometry (GEOS may return lines or points from a union)."""
+    if geom is None or geom.is_empty:
+        return shapely.MultiPolygon()
+    if geom.geom_type in ("Polygon", "MultiPolygon"):
+        return geom
+    parts = [g for g in shapely.get_parts(geom) if g.geom_type in ("Polygon", "MultiPolygon")]
+    return shapely.union_all(parts) if parts else shapely.MultiPolygon()
+
+
+def _nearest_vertex(v: np.ndarray, reason: str) -> int | None:
+    """1-based index of the vertex nearest to the location GEOS names in ``reason``."""
+    import re
+
+    m = re.search(r"\[([-0-9.eE+]+)\s+([-0-9.eE+]+)", reason)
+    if not m:
+        return None
+    p = np.array([float(m.group(1)), float(m.group(2))])
+    return int(np.argmin(np.hypot(*(v - p).T))) + 1
+
+
+def _vertex_near_reason(region: Region, reason: str) -> int | None:
+    return _nearest_vertex(np.vstack([r.vertices for r in region.rings]), reason)

@@ -1,0 +1,46 @@
+"""The ``fuzzybrep`` command line: one sub-command per module in ``fuzzybrep.commands``.
+
+Each command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``.
+Errors fuzzybrep raises on purpose are printed as one line and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .errors import FuzzyBrepError
+
+#: command modules, in the order ``fuzzybrep --help`` lists them
+COMMANDS = [
+    "build",
+    "export",
+]
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="fuzzybrep", description="Fuzzy boundary-representation maps from 2-D laser scans.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        mod = importlib.import_module(f".commands.{name}", __package__)
+        sp = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        mod.add_arguments(sp)
+        sp.set_defaults(_run=mod.run)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except FuzzyBrepError as e:
+        print(f"fuzzybrep {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

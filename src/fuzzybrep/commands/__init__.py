@@ -1,0 +1,1 @@
+"""One module per ``fuzzybrep`` sub-command (see ``fuzzybrep.cli``)."""

@@ -1,0 +1,60 @@
+"""Error classes: every error says where (file and line, or ring and vertex) and what is wrong.
+
+A caller can catch everything fuzzybrep raises with ``FuzzyBrepError``, or one kind by its class.
+"""
+
+from __future__ import annotations
+
+import os
+
+
+class FuzzyBrepError(Exception):
+    """Base class of every error fuzzybrep raises on purpose."""
+
+
+class ScanFormatError(FuzzyBrepError, ValueError):
+    """A scan file is malformed or truncated: names the file, the line and the field."""
+
+    def __init__(self, path: str | os.PathLike | None, line: int | None, message: str, field: str | None = None):
+        self.path = None if path is None else os.fspath(path)
+        self.line = line
+        self.field = field
+        self.reason = message
+        where = self.path or "<scans>"
+        if line is not None:
+            where += f", line {line}"
+        if field is not None:
+            where += f", field {field}"
+        super().__init__(f"{where}: {message}")
+
+
+class ScanValueError(ScanFormatError):
+    """A scan holds an impossible value (NaN or negative range, NaN pose)."""
+
+
+class GeometryError(FuzzyBrepError, ValueError):
+    """A polygon is degenerate or self-intersecting: names the ring and the vertex."""
+
+    def __init__(self, message: str, ring: str | None = None, vertex: int | None = None):
+        self.ring = ring
+        self.vertex = vertex
+        self.reason = message
+        where = []
+        if ring is not None:
+            where.append(ring)
+        if vertex is not None:
+            where.append(f"vertex {vertex}")
+        super().__init__(f"{', '.join(where)}: {message}" if where else message)
+
+
+class MembershipFunctionError(FuzzyBrepError, ValueError):
+    """A membership function fails the criteria of thesis section 4.1.1."""
+
+
+class MapFileError(FuzzyBrepError):
+    """A map file cannot be read or written: names the file."""
+
+    def __init__(self, path: str | os.PathLike, message: str):
+        self.path = os.fspath(path)
+        self.reason = message
+        super().__init__(f"{self.path}: {message}")

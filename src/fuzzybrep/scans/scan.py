@@ -1,0 +1,81 @@
+"""The scan: ranges and bearings of one laser sweep taken at a known sensor pose (thesis 3.2, step a)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ScanValueError
+
+
+@dataclass(frozen=True, eq=False)
+class Scan:
+    """One laser scan at a known pose.
+
+    ranges    (n,) distances along each beam, in the map's unit (metres for real logs).
+    bearings  (n,) beam angles in radians relative to the sensor heading, strictly increasing
+              (counter-clockwise), spanning at most one full turn.
+    pose      (3,) sensor pose x, y, heading (radians) in the world frame.
+    timestamp seconds; decides which evidence is newer when scans disagree.
+    max_range a range at or above this means "no return": the beam saw nothing (unknown),
+              not an obstacle.
+    source    where the scan came from ("file:line"), for messages.
+    """
+
+    ranges: np.ndarray
+    bearings: np.ndarray
+    pose: np.ndarray
+    timestamp: float = 0.0
+    max_range: float = np.inf
+    source: str = ""
+    _checked: bool = field(default=False, repr=False)
+
+    def __post_init__(self) -> None:
+        r = np.ascontiguousarray(self.ranges, dtype=np.float64)
+        b = np.ascontiguousarray(self.bearings, dtype=np.float64)
+        p = np.ascontiguousarray(self.pose, dtype=np.float64)
+        object.__setattr__(self, "ranges", r)
+        object.__setattr__(self, "bearings", b)
+        object.__setattr__(self, "pose", p)
+        where = self.source or "scan"
+        if r.ndim != 1 or b.shape != r.shape:
+            raise ScanValueError(where, None, f"{r.size} ranges but {b.size} bearings")
+        if p.shape != (3,):
+            raise ScanValueError(where, None, f"pose must be (x, y, heading), got {p.shape}")
+        if not np.all(np.isfinite(p)):
+            raise ScanValueError(where, None, f"pose is not finite: {p.tolist()}")
+        bad = ~np.isfinite(r) | (r < 0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ScanValueError(where, None, f"beam {i} has range {r[i]!r} (NaN, infinite or negative)")
+        if r.size >= 2 and np.any(np.diff(b) <= 0):
+            raise ScanValueError(where, None, f"bearings must increase strictly")
+        if r.size and b[-1] - b[0] >= 2 * np.pi:
+            raise ScanValueError(where, None, f"bearings span a full turn or more")
+
+    @property
+    def returns(self) -> np.ndarray:
+        """(n,) bool: the beam hit something (range below max_range and above zero)."""
+        return (self.ranges < self.max_range) & (self.ranges > 0)
+
+    @property
+    def full_circle(self) -> bool:
+        """True when the beams cover the whole turn (a consolidated 360° scan, thesis 5.2)."""
+        if self.bearings.size < 3:
+            return False
+        step = np.median(np.diff(self.bearings))
+        return bool(self.bearings[-1] - self.bearings[0] + 1.5 * step >= 2 * np.pi)
+
+    def world_angles(self) -> np.ndarray:
+        return self.pose[2] + self.bearings
+
+    def endpoints(self) -> np.ndarray:
+        """(n, 2) world coordinates of every beam's endpoint (no-return beams included)."""
+        a = self.world_angles()
+        return np.column_stack((self.pose[0] + self.ranges * np.cos(a), self.pose[1] + self.ranges * np.sin(a)))
+
+
+def even_bearings(n: int, fov: float = np.pi) -> np.ndarray:
+    """n beams spread evenly over the field of view, both ends included (CARMEN's convention)."""
+    return np.linspace(-fov / 2, fov / 2, n)
