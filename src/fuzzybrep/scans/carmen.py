@@ -1,0 +1,121 @@
+"""CARMEN logs: ``FLASER`` (front laser) messages, plain or gzip-compressed.
+
+    FLASER n r_1 ... r_n  x y theta  odom_x odom_y odom_theta  timestamp host logger_timestamp
+
+Ranges in metres; the n beams spread evenly from -90° to +90° relative to the laser heading
+``theta``, both ends included; ``x y theta`` is the laser pose. Other message types (``ODOM``,
+``PARAM``, ``NEFF``, comments) carry no scan and are skipped. A range at or above the sensor's
+maximum means "no return". CARMEN logs do not record that maximum, so by default it is taken as
+the largest range in the log (81.83 m in the Intel log, 50 m in ACES): pass ``max_range`` when the
+log has no no-return beams.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ScanFormatError
+from .read import BadLine, ReadReport, is_float
+from .scan import Scan, even_bearings
+
+SCAN_MESSAGES = ("FLASER",)
+
+
+def _open_text(path: Path):
+    with open(path, "rb") as f:
+        magic = f.read(2)
+    raw = gzip.open(path, "rb") if magic == b"\x1f\x8b" else open(path, "rb")
+    return io.TextIOWrapper(raw, encoding="utf-8", errors="replace")
+
+
+def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
+    """(ranges, pose, timestamp) of one FLASER line; raises BadLine naming the field."""
+    try:
+        n = int(parts[1])
+    except (IndexError, ValueError):
+        raise BadLine("n", f"beam count {parts[1] if len(parts) > 1 else ''!r} is not an integer") from None
+    if n <= 0:
+        raise BadLine("n", f"beam count {n} must be positive")
+    need = 2 + n + 7
+    if len(parts) < need:
+        raise BadLine(None, f"truncated: {len(parts)} fields, a FLASER line with {n} beams needs at least {need}")
+    try:
+        r = np.array(parts[2 : 2 + n], dtype=np.float64)
+    except ValueError:
+        bad = next(i for i, t in enumerate(parts[2 : 2 + n]) if not is_float(t))
+        raise BadLine(f"r_{bad + 1}", f"range {parts[2 + bad]!r} is not a number") from None
+    bad = ~np.isfinite(r) | (r < 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadLine(f"r_{i + 1}", f"range {r[i]!r} is {'negative' if r[i] < 0 else 'not finite'}", True)
+    names = ("x", "y", "theta", "odom_x", "odom_y", "odom_theta", "timestamp")
+    vals = []
+    for name, tok in zip(names, parts[2 + n :]):
+        if not is_float(tok):
+            raise BadLine(name, f"{tok!r} is not a number")
+        v = float(tok)
+        if not np.isfinite(v):
+            raise BadLine(name, f"{tok!r} is not finite", True)
+        vals.append(v)
+    return r, np.array(vals[:3]), vals[6]
+
+
+def read_carmen(
+    path: str | os.PathLike,
+    max_range: float | None = None,
+    skip_bad: bool = False,
+    report: ReadReport | None = None,
+) -> list[Scan]:
+    """All FLASER scans of a CARMEN log, in file order.
+
+    Malformed, truncated or impossible lines (NaN or negative ranges) raise ScanFormatError naming
+    the file, line and field; with ``skip_bad`` they are skipped instead and counted in ``report``.
+    """
+    path = Path(path)
+    report = report if report is not None else ReadReport()
+    rows: list[tuple[np.ndarray, np.ndarray, float, int]] = []
+    try:
+        f = _open_text(path)
+    except OSError as e:
+        raise ScanFormatError(path, None, f"cannot open: {e.strerror or e}") from None
+    lineno = 0
+    try:
+        with f:
+            for lineno, line in enumerate(f, 1):
+                if not line.startswith(SCAN_MESSAGES):
+                    continue
+                parts = line.split()
+                if parts[0] not in SCAN_MESSAGES:
+                    continue
+                try:
+                    r, pose, t = _parse_flaser(parts)
+                except BadLine as e:
+                    err = e.error(path, lineno)
+                    if not skip_bad:
+                        raise err from None
+                    report.skip(err)
+                    continue
+                rows.append((r, pose, t, lineno))
+    except (EOFError, gzip.BadGzipFile, OSError) as e:
+        # a cut-off gzip stream: everything before the cut is kept only if the caller asked to skip
+        err = ScanFormatError(path, lineno + 1, f"file is truncated or corrupt ({e})")
+        if not skip_bad:
+            raise err from None
+        report.skip(err)
+    if not rows:
+        raise ScanFormatError(path, None, "no FLASER scans in this file")
+    if max_range is None:
+        max_range = max(float(r.max()) for r, *_ in rows)
+    scans = []
+    bearings: dict[int, np.ndarray] = {}
+    for r, pose, t, lineno in rows:
+        b = bearings.setdefault(len(r), even_bearings(len(r)))
+        scans.append(Scan(r, b, pose, t, max_range, f"{path.name}:{lineno}"))
+    report.scans = len(scans)
+    report.max_range = max_range
+    return scans

@@ -1,0 +1,181 @@
+"""The plain CSV scan format: one row per beam.
+
+    # fuzzybrep scans 1
+    # max_range: 8.0
+    scan,time,x,y,theta,bearing,range
+    0,0.0,1.5,2.0,0.0,-1.5707963,2.31
+    0,0.0,1.5,2.0,0.0,-1.5533430,2.30
+    ...
+
+- ``scan`` groups the rows of one scan (rows of a scan are consecutive); ``time`` is its timestamp
+  in seconds; ``x, y, theta`` its sensor pose (theta in radians); ``bearing`` the beam angle in
+  radians relative to theta, increasing within a scan; ``range`` the measured distance.
+- Coordinates and ranges share one unit (metres for robots, but any unit works).
+- Lines starting with ``#`` are comments. ``# max_range: R`` declares the sensor's maximum: ranges
+  at or above R mean "no return" (unknown, not an obstacle). Without it every range is a return.
+- The columns may come in any order; other columns are ignored. The file may be gzip-compressed.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ScanFormatError
+from ..mapfile import write_atomic
+from .read import BadLine, ReadReport, is_float
+from .scan import Scan
+
+COLUMNS = ("scan", "time", "x", "y", "theta", "bearing", "range")
+_MAX_RANGE = re.compile(r"#\s*max_range\s*[:=]\s*(\S+)")
+
+
+def _read_text(path: Path) -> str:
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise ScanFormatError(path, None, f"cannot open: {e.strerror or e}") from None
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (EOFError, OSError) as e:
+            raise ScanFormatError(path, None, f"gzip stream is truncated or corrupt ({e})") from None
+    return raw.decode("utf-8", errors="replace")
+
+
+def read_csv(
+    path: str | os.PathLike,
+    max_range: float | None = None,
+    skip_bad: bool = False,
+    report: ReadReport | None = None,
+) -> list[Scan]:
+    """Scans from a CSV scan file; errors name the file, line and column."""
+    path = Path(path)
+    report = report if report is not None else ReadReport()
+    lines = _read_text(path).splitlines()
+    header_at = None
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            m = _MAX_RANGE.match(s)
+            if m and max_range is None:
+                if not is_float(m.group(1)) or not float(m.group(1)) > 0:
+                    raise ScanFormatError(path, i + 1, f"max_range {m.group(1)!r} is not a positive number")
+                max_range = float(m.group(1))
+            continue
+        header_at = i
+        break
+    if header_at is None:
+        raise ScanFormatError(path, None, "empty: no header line")
+    names = [c.strip().lower() for c in lines[header_at].split(",")]
+    missing = [c for c in COLUMNS if c not in names]
+    if missing:
+        raise ScanFormatError(path, header_at + 1, f"header lacks column(s) {', '.join(missing)}; expected {','.join(COLUMNS)}")
+    cols = [names.index(c) for c in COLUMNS]
+    data_idx = [i for i in range(header_at + 1, len(lines)) if lines[i].strip() and not lines[i].lstrip().startswith("#")]
+    if not data_idx:
+        raise ScanFormatError(path, header_at + 1, "no scan rows after the header")
+    table = _parse_rows(path, lines, data_idx, cols, len(names), skip_bad, report)
+    scans = _group(path, table, max_range if max_range is not None else np.inf, skip_bad, report)
+    if not scans:
+        raise ScanFormatError(path, None, "no usable scans")
+    report.scans = len(scans)
+    report.max_range = max_range
+    return scans
+
+
+def _parse_rows(path, lines, data_idx, cols, ncols, skip_bad, report) -> np.ndarray:
+    """(m, 8) float array: the seven columns plus the 1-based file line of each row."""
+    try:
+        # fast path: the whole table at once; any problem falls back to row-by-row for a precise message
+        arr = np.loadtxt(io.StringIO("\n".join(lines[i] for i in data_idx)), delimiter=",", usecols=cols,
+                         ndmin=2, dtype=np.float64)
+        if arr.shape[0] == len(data_idx) and np.isfinite(arr).all() and (arr[:, 6] >= 0).all() \
+                and all(lines[i].count(",") == ncols - 1 for i in (data_idx[0], data_idx[-1])):
+            return np.column_stack((arr, np.asarray(data_idx, np.float64) + 1))
+    except ValueError:
+        pass
+    rows = []
+    for i in data_idx:
+        try:
+            rows.append(_parse_row(lines[i], cols, ncols) + [i + 1])
+        except BadLine as e:
+            err = e.error(path, i + 1)
+            if not skip_bad:
+                raise err from None
+            report.skip(err)
+    return np.array(rows, dtype=np.float64).reshape(-1, 8)
+
+
+def _parse_row(line: str, cols: list[int], ncols: int) -> list[float]:
+    parts = line.split(",")
+    if len(parts) < ncols:
+        raise BadLine(None, f"truncated: {len(parts)} columns, the header has {ncols}")
+    out = []
+    for name, c in zip(COLUMNS, cols):
+        tok = parts[c].strip()
+        if not is_float(tok):
+            raise BadLine(name, f"{tok!r} is not a number")
+        v = float(tok)
+        if not np.isfinite(v):
+            raise BadLine(name, f"{tok!r} is not finite", True)
+        if name == "range" and v < 0:
+            raise BadLine(name, f"range {tok} is negative", True)
+        out.append(v)
+    return out
+
+
+def _group(path, t: np.ndarray, max_range: float, skip_bad: bool, report: ReadReport) -> list[Scan]:
+    if len(t) == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, t[1:, 0] != t[:-1, 0]])
+    ends = np.r_[starts[1:], len(t)]
+    seen: set[float] = set()
+    scans = []
+    for s, e in zip(starts, ends):
+        rows = t[s:e]
+        line0 = int(rows[0, 7])
+        try:
+            if rows[0, 0] in seen:
+                raise BadLine("scan", f"rows of scan {rows[0, 0]:g} are not consecutive")
+            seen.add(rows[0, 0])
+            for j, name in ((1, "time"), (2, "x"), (3, "y"), (4, "theta")):
+                diff = np.flatnonzero(rows[:, j] != rows[0, j])
+                if diff.size:
+                    line0 = int(rows[diff[0], 7])
+                    raise BadLine(name, f"{name} changes within scan {rows[0, 0]:g}")
+            bad = np.flatnonzero(np.diff(rows[:, 5]) <= 0)
+            if bad.size:
+                line0 = int(rows[bad[0] + 1, 7])
+                raise BadLine("bearing", f"bearings of scan {rows[0, 0]:g} must increase")
+        except BadLine as e:
+            err = e.error(path, line0)
+            if not skip_bad:
+                raise err from None
+            report.skip(err)
+            continue
+        scans.append(Scan(rows[:, 6], rows[:, 5], rows[0, 2:5], rows[0, 1], max_range, f"{path.name}:{int(rows[0, 7])}"))
+    return scans
+
+
+def write_csv(path: str | os.PathLike, scans: list[Scan]) -> int:
+    """Write scans in the CSV scan format (atomically); returns bytes written."""
+    out = io.StringIO()
+    out.write("# fuzzybrep scans 1\n")
+    mr = {s.max_range for s in scans}
+    if len(mr) > 1:
+        raise ValueError("all scans of one CSV file must share max_range")
+    if mr and np.isfinite(next(iter(mr))):
+        out.write(f"# max_range: {next(iter(mr))!r}\n")
+    out.write(",".join(COLUMNS) + "\n")
+    for k, s in enumerate(scans):
+        head = f"{k},{s.timestamp!r},{s.pose[0]!r},{s.pose[1]!r},{s.pose[2]!r},"
+        out.writelines(f"{head}{b!r},{r!r}\n" for b, r in zip(s.bearings.tolist(), s.ranges.tolist()))
+    return write_atomic(path, out.getvalue().encode())
