@@ -73,3 +73,13 @@ class UMBmarkError(FuzzyBrepError, ValueError):
                              None if field is None else f"field {field}") if w]
         super().__init__(f"{', '.join(where)}: {message}" if where else message)
 
+
+class WorldError(FuzzyBrepError, ValueError):
+    """A simulated world (floor plan) or route is malformed: names the file and the feature."""
+
+    def __init__(self, message: str, path: str | os.PathLike | None = None, feature: int | None = None):
+        self.path = None if path is None else os.fspath(path)
+        self.feature = feature
+        self.reason = message
+        where = [w for w in (self.path, None if feature is None else f"feature {feature}") if w]
+        super().__init__(f"{', '.join(where)}: {message}" if where else message)
