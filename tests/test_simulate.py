@@ -376,7 +376,7 @@ def test_simulate_command_needs_a_route_for_a_custom_world(tmp_path, monkeypatch
     monkeypatch.setattr(cli, "COMMANDS", ["simulate"])
     path = _write(tmp_path, [_poly(SQUARE)])
     assert cli.main(["simulate", "--world", str(path)]) == 2
-    assert "no route feature" in capsys.readouterr().err
+    assert "found 0 (pass --route, or give the world file a route feature)" in capsys.readouterr().err
     route = tmp_path / "r.csv"
     route.write_text("1,1\n9,1\n9,9\n")
     assert cli.main(["simulate", "--world", str(path), "--route", str(route), "--spacing", "4"]) == 0

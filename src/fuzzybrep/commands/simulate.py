@@ -92,6 +92,7 @@ def _route(args: argparse.Namespace, world: World) -> Route:
     if args.world:
         try:
             return Route.from_file(args.world, args.spacing)
-        except WorldError:
-            raise WorldError("the world file has no route feature (role route): pass --route", args.world) from None
+        except WorldError as e:
+            raise WorldError(f"{e.reason} (pass --route, or give the world file a route feature)", args.world,
+                             e.feature) from None
     return builtin_route(5.0 if args.spacing is None else args.spacing)
