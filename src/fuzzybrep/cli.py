@@ -16,6 +16,8 @@ from .errors import FuzzyBrepError
 COMMANDS = [
     "build",
     "export",
+    "simulate",
+    "umbmark",
 ]
 
 

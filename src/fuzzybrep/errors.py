@@ -58,3 +58,28 @@ class MapFileError(FuzzyBrepError):
         self.path = os.fspath(path)
         self.reason = message
         super().__init__(f"{self.path}: {message}")
+
+
+class UMBmarkError(FuzzyBrepError, ValueError):
+    """UMBmark stop positions are malformed or incomplete: names the file, line and field when read from one."""
+
+    def __init__(self, message: str, path: str | os.PathLike | None = None, line: int | None = None,
+                 field: str | None = None):
+        self.path = None if path is None else os.fspath(path)
+        self.line = line
+        self.field = field
+        self.reason = message
+        where = [w for w in (self.path, None if line is None else f"line {line}",
+                             None if field is None else f"field {field}") if w]
+        super().__init__(f"{', '.join(where)}: {message}" if where else message)
+
+
+class WorldError(FuzzyBrepError, ValueError):
+    """A simulated world (floor plan) or route is malformed: names the file and the feature."""
+
+    def __init__(self, message: str, path: str | os.PathLike | None = None, feature: int | None = None):
+        self.path = None if path is None else os.fspath(path)
+        self.feature = feature
+        self.reason = message
+        where = [w for w in (self.path, None if feature is None else f"feature {feature}") if w]
+        super().__init__(f"{', '.join(where)}: {message}" if where else message)
