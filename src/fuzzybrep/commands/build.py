@@ -1,0 +1,104 @@
+"""fuzzybrep build: scans in, map file (and picture) out."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+NAME = "build"
+HELP = "build a map from a laser log (CARMEN, CSV scans or a ROS bag)"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("log", help="CARMEN log (.log or .log.gz), CSV scan file (.csv) or ROS bag")
+    p.add_argument("--out", required=True, help="map file to write (JSON)")
+    p.add_argument("--plot", help="picture of the map to write (PNG, SVG or PDF)")
+    p.add_argument("--format", choices=["carmen", "csv", "rosbag"], help="input format (default: from the file name)")
+    p.add_argument("--max-range", type=float, help="ranges at or above this mean no return (default: the log's largest range)")
+    p.add_argument("--skip-bad", action="store_true", help="skip malformed lines (and say how many) instead of stopping")
+    p.add_argument("--consolidate", action="store_true",
+                   help="merge pairs of 180° scans taken at one spot facing opposite ways into 360° scans (thesis 5.2)")
+    p.add_argument("--lines", choices=["hough", "iepf"], default="hough", help="line extractor (default: hough, thesis 3.2.1.1)")
+    p.add_argument("--theta-step", type=float, default=1.0, help="Hough θ step in degrees (default 1)")
+    p.add_argument("--max-usable", type=float, default=8.0, help="longest range whose free space is trusted (default 8)")
+    p.add_argument("--no-return-free", type=float, default=0.0,
+                   help="free range claimed along beams with no return (default 0: unknown)")
+    p.add_argument("--no-evidence", action="store_true",
+                   help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
+    p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
+    p.add_argument("--min-hole-area", type=float, help="prune holes smaller than this (map unit², default from the config)")
+    p.add_argument("--simplify", type=float, help="vertex reduction tolerance (map unit, default from the config)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+
+
+def config_from_args(args):
+    from ..build import BuildConfig
+
+    cfg = BuildConfig()
+    cfg = replace(
+        cfg,
+        beams=replace(cfg.beams, max_usable=args.max_usable, no_return_free=args.no_return_free),
+        polygon=replace(cfg.polygon, lines=replace(cfg.polygon.lines, method=args.lines, theta_step=args.theta_step)),
+        evidence=replace(cfg.evidence, clear=not args.no_clear),
+        use_evidence=not args.no_evidence,
+    )
+    if args.min_hole_area is not None:
+        cfg = replace(cfg, min_hole_area=args.min_hole_area)
+    if args.simplify is not None:
+        cfg = replace(cfg, simplify=args.simplify)
+    return cfg
+
+
+def run(args) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from ..build import build_map
+    from ..mapfile import MapFile, write_map
+    from ..plot import save_map_figure
+    from ..scans.consolidate import consolidate_pairs
+    from ..scans.read import ReadReport, read_scans
+
+    console = Console(stderr=True, quiet=args.quiet)
+    cfg = config_from_args(args)
+    t0 = time.perf_counter()
+    report = ReadReport()
+    kw = {"skip_bad": args.skip_bad}
+    if args.max_range is not None:
+        kw["max_range"] = args.max_range
+    scans = read_scans(args.log, fmt=args.format, report=report, **kw)
+    if args.consolidate:
+        scans, report.consolidated = consolidate_pairs(scans)
+    if report.skipped:
+        console.print(f"[yellow]skipped {report.skipped} bad line(s)[/yellow]; first: {report.errors[0]}")
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), console=console, transient=True, disable=args.quiet or len(scans) < 200) as bar:
+        task = bar.add_task("scan polygons", total=len(scans))
+        result = build_map(scans, cfg, progress=lambda stage, done, total: bar.update(task, completed=done))
+
+    poses = np.array([[*s.pose, s.timestamp] for s in scans])
+    meta = {
+        "source": Path(args.log).name,
+        "scans": len(scans),
+        "line_extractor": args.lines,
+        "built_with": "fuzzybrep",
+    }
+    nbytes = write_map(args.out, MapFile(result.crisp, [], poses, meta))
+    if args.plot:
+        save_map_figure(args.plot, result.crisp, poses[:, :2], title=f"{Path(args.log).name}: crisp B-rep map")
+    seconds = time.perf_counter() - t0
+    crisp = result.crisp
+    pieces = len(crisp.regions) - 1
+    console.print(
+        f"[bold]{Path(args.log).name}[/bold]: {len(scans)} scans"
+        + (f" ({report.consolidated} pairs consolidated)" if report.consolidated else "")
+        + f", {crisp.n_vertices} vertices, {crisp.n_holes} holes"
+        + (f", {pieces} detached piece(s) kept" if pieces else "")
+        + f", free area {crisp.area:.1f} {crisp.unit}², {nbytes} bytes -> {args.out}"
+        + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)"
+    )
+    return 0

@@ -1,0 +1,102 @@
+"""Figures of maps with matplotlib: free space, holes, edge kinds, robot poses, fuzzy bands."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import shapely
+
+from .brep import FRONTIER, BRepMap, Ring
+
+FREE = "#dbe9f6"
+OBSTACLE_EDGE = "#1f3a5f"
+FRONTIER_EDGE = "#e07b39"
+
+
+def _agg():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "ps", "cairo"):
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def fill_geometry(ax, geom, **kw) -> None:
+    """Fill a (Multi)Polygon with holes on a matplotlib axis."""
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path
+
+    for g in shapely.get_parts(geom):
+        if g.is_empty or g.geom_type != "Polygon":
+            continue
+        rings = [np.asarray(g.exterior.coords)] + [np.asarray(h.coords) for h in g.interiors]
+        verts = np.vstack(rings)
+        codes = np.concatenate([[Path.MOVETO] + [Path.LINETO] * (len(r) - 2) + [Path.CLOSEPOLY] for r in rings])
+        ax.add_patch(PathPatch(Path(verts, codes), **kw))
+
+
+def draw_edges(ax, rings: list[Ring], lw: float = 0.8) -> None:
+    """Edges coloured by kind: obstacle (dark) or frontier (orange)."""
+    from matplotlib.collections import LineCollection
+
+    segs, colors = [], []
+    for r in rings:
+        v = r.vertices
+        segs.append(np.stack((v, np.roll(v, -1, axis=0)), axis=1))
+        colors.append(np.where(r.kinds == FRONTIER, 1, 0))
+    if not segs:
+        return
+    segs = np.concatenate(segs)
+    c = np.concatenate(colors)
+    palette = np.array([OBSTACLE_EDGE, FRONTIER_EDGE])
+    ax.add_collection(LineCollection(segs, colors=palette[c], linewidths=lw))
+
+
+def draw_map(ax, crisp: BRepMap, poses: np.ndarray | None = None, title: str | None = None) -> None:
+    fill_geometry(ax, crisp.to_shapely(), facecolor=FREE, edgecolor="none")
+    draw_edges(ax, crisp.rings)
+    if poses is not None and len(poses):
+        ax.plot(poses[:, 0], poses[:, 1], "-", color="#2a9d8f", lw=0.6, alpha=0.8, label="robot path")
+    x0, y0, x1, y1 = crisp.to_shapely().bounds
+    pad = 0.03 * max(x1 - x0, y1 - y0)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x [{crisp.unit}]")
+    ax.set_ylabel(f"y [{crisp.unit}]")
+    if title:
+        ax.set_title(title)
+
+
+def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray | None = None, title: str | None = None,
+                    dpi: int = 150) -> None:
+    """A picture of a crisp map: free space filled, obstacle edges dark, frontier edges orange."""
+    plt = _agg()
+    from matplotlib.lines import Line2D
+
+    x0, y0, x1, y1 = crisp.to_shapely().bounds
+    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    fig, ax = plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
+    draw_map(ax, crisp, poses, title)
+    handles = [Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"), Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
+    if poses is not None and len(poses):
+        handles.append(Line2D([], [], color="#2a9d8f", label="robot path"))
+    ax.legend(handles=handles, loc="best", fontsize=8)
+    fig.tight_layout()
+    _save(fig, path, dpi)
+    plt.close(fig)
+
+
+def _save(fig, path, dpi) -> None:
+    """Save atomically: a half-written picture never replaces a good one."""
+    import io
+
+    from .mapfile import write_atomic
+
+    buf = io.BytesIO()
+    ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
+    fig.savefig(buf, format=ext, dpi=dpi)
+    write_atomic(path, buf.getvalue())
