@@ -3,7 +3,7 @@
     beams     = classify every beam of every scan (return, far, no return; spikes cut back)
     evidence  = what all scans saw: time-stamped hits and free crossings; clip rays at obstacles
     polygons  = one scan polygon per scan (Hough or IEPF lines, vertex and edge tables)
-    crisp     = union of all scan polygons: principal polygon + holes (+ detached pieces)
+    crisp     = union of all scan polygons, minus obstacles it swallowed: principal + holes
     kinds     = each map edge tagged obstacle (a return was seen there) or frontier
 
 ``build_map`` reads like that list; each step is a call into the module named for it.
@@ -93,6 +93,8 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
                 progress("scan polygons", len(polygons), len(scans))
     with timer("union"):
         geom = brep.union(brep.rings_to_shapely([p.ring for p in polygons]))
+        if ev is not None:
+            geom = geom.difference(evidence.carve(geom, ev, config.evidence))
         geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify)
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):

@@ -25,6 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from scipy import ndimage
 
 from .lines import spans
@@ -38,7 +39,10 @@ class EvidenceConfig:
     own_margin: float = 0.10  #: evidence closer than this to a beam's own end is its own surface
     clear_crossings: int = 3  #: crossings after the last hit needed to clear an obstacle
     clear: bool = True  #: allow later free rays to clear obstacles (dynamic environments)
-    block_ratio: float = 0.0  #: a cell blocks rays only if hits >= block_ratio x all its crossings
+    solid_hits: int = 3  #: a cell hit this often blocks rays whatever crossed it
+    carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
+    carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
+    block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     chunk: int = 2_000_000  #: samples per batch, to bound memory
 
 
@@ -85,6 +89,29 @@ class Rays:
     @property
     def hy(self) -> np.ndarray:
         return self.oy[self.hit] + self.hit_range[self.hit] * self.sin[self.hit]
+
+
+def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
+    """The obstacle cells the free space swallowed: occupied, hit ``carve_hits`` times or more, and
+    more than ``carve_depth`` inside it (a cell-sized box each, united).
+
+    A thin wall seen from both sides ends every ray at its own face, so no ray is clipped, yet the
+    free space of the two sides meets (or overlaps by the pose error) and the wall is gone from the
+    union. Cutting these cells back out keeps every obstacle seen solidly as a boundary.
+    """
+    ny, nx = ev.shape
+    cand = np.flatnonzero(ev.occupied & (ev.hits >= cfg.carve_hits))
+    if cand.size == 0 or free.is_empty:
+        return shapely.GeometryCollection()
+    cx = ev.origin[0] + (cand % nx + 0.5) * ev.cell
+    cy = ev.origin[1] + (cand // nx + 0.5) * ev.cell
+    shapely.prepare(free)
+    deep = shapely.contains_xy(free, cx, cy)
+    r = cfg.carve_depth
+    for dx, dy in ((r, 0), (-r, 0), (0, r), (0, -r)):
+        deep[deep] = shapely.contains_xy(free, cx[deep] + dx, cy[deep] + dy)
+    h = ev.cell / 2
+    return shapely.union_all(shapely.box(cx[deep] - h, cy[deep] - h, cx[deep] + h, cy[deep] + h))
 
 
 def _grid_rays(rays: Rays, ev: "Evidence", step: float):
@@ -175,7 +202,10 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     after = sum(p[0] for p in parts)
     total = sum(p[1] for p in parts)
     cleared = (after >= cfg.clear_crossings) & (after > hits_near)
-    ev.occupied = (hits > 0) & ~cleared & (hits >= cfg.block_ratio * total)
+    # a cell hit once or twice but crossed hundreds of times is noise at the edge of something
+    # (a mixed pixel, pose jitter), not an obstacle
+    solid = (hits >= cfg.solid_hits) | (hits >= cfg.block_ratio * total)
+    ev.occupied = (hits > 0) & ~cleared & solid
     return ev
 
 
