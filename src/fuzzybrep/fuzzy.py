@@ -316,6 +316,11 @@ class FuzzyBRepMap:
 
     @staticmethod
     def _exact_side(crisp, parts: list, sign: int, quad_segs: int) -> shapely.Geometry:
+        x0, y0, x1, y1 = crisp.bounds
+        # GEOS buffers at a distance near rounding (α → 1) can come back perturbed by more than
+        # the distance (precision-reduction fallback): below 1e-12 of the map's size, use the map
+        tiny = 1e-12 * max(x1 - x0, y1 - y0)
+        parts = [(g, 0.0 if d <= tiny else d) for g, d in parts]
         ds = {d for _, d in parts}
         if ds == {0.0}:
             return crisp

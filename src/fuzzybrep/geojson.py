@@ -56,7 +56,7 @@ def crisp_from_geojson(obj, unit: str = "m") -> BRepMap:
 def _polygon_coords(obj, where: str = ""):
     """Yield (coordinates of one polygon, its name) from any GeoJSON object."""
     if not isinstance(obj, dict):
-        raise ValueError(f"{where or 'GeoJSON'}: expected an object, got {type(obj).__name__}")
+        raise ValueError(_at(where, f"expected a GeoJSON object, got {type(obj).__name__}"))
     kind = obj.get("type")
     if kind == "FeatureCollection":
         feats = obj.get("features")
@@ -77,13 +77,17 @@ def _polygon_coords(obj, where: str = ""):
     elif kind == "MultiPolygon":
         coords = obj.get("coordinates")
         if not isinstance(coords, list):
-            raise ValueError(f"{where or 'MultiPolygon'}: coordinates must be a list")
+            raise ValueError(_at(where, "MultiPolygon coordinates must be a list"))
         for j, c in enumerate(coords):
             yield c, f"{where + ' ' if where else ''}polygon {j + 1}"
     elif kind in ("Point", "MultiPoint", "LineString", "MultiLineString"):
-        raise ValueError(f"{where or 'GeoJSON'}: a {kind} has no area; a crisp map needs Polygon or MultiPolygon")
+        raise ValueError(_at(where, f"a {kind} has no area; a crisp map needs Polygon or MultiPolygon"))
     else:
-        raise ValueError(f"{where or 'GeoJSON'}: unknown GeoJSON type {kind!r}")
+        raise ValueError(_at(where, f"unknown GeoJSON type {kind!r}"))
+
+
+def _at(where: str, message: str) -> str:
+    return f"{where}: {message}" if where else message
 
 
 def _ring(coords, name: str) -> np.ndarray:

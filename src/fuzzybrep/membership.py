@@ -295,7 +295,8 @@ class A1(_Family):
         return 1.0 / self.p
 
     def _shape(self, ax):
-        return np.maximum(0.0, 1.0 - self.p * ax)
+        # exactly 0 from 1/p on: 1 − p·(1/p) rounds to 1e−16, which criterion 1 would refuse
+        return np.where(ax >= 1.0 / self.p, 0.0, np.maximum(0.0, 1.0 - self.p * ax))
 
     def _inverse(self, a):
         return (1.0 - a) / self.p
@@ -351,7 +352,7 @@ class A4(_Family):
         return 1.0 / self.p
 
     def _shape(self, ax):
-        return np.where(ax <= 1.0 / self.p, 0.5 * (1.0 + np.cos(self.p * np.pi * np.minimum(ax, 1.0 / self.p))), 0.0)
+        return np.where(ax < 1.0 / self.p, 0.5 * (1.0 + np.cos(self.p * np.pi * np.minimum(ax, 1.0 / self.p))), 0.0)
 
     def _inverse(self, a):
         return np.arccos(2.0 * a - 1.0) / (self.p * np.pi)
