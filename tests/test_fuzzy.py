@@ -17,7 +17,14 @@ from fuzzybrep.fuzzy import FuzzyBRepMap, approximation_error, default_tme, fuzz
 from fuzzybrep.mapfile import MapFile, write_map
 from fuzzybrep.membership import A4, DEFAULT_TME_M, MembershipTable, Triangular
 
-AREA_TOL = 1e-9
+AREA_TOL = 1e-7
+
+
+def outside_area(a, b) -> float:
+    """Area of a outside b, by snap-rounded overlay: a plain GEOS difference of two polygons equal
+    up to the last bits was seen to return all of a."""
+    x0, y0, x1, y1 = shapely.union(a, b).bounds
+    return float(shapely.difference(a, b, grid_size=1e-10 * max(x1 - x0, y1 - y0, 1e-300)).area)
 
 
 def square(side=10.0, holes=()):
@@ -161,11 +168,11 @@ def test_alpha_cuts_nest_are_valid_and_end_at_the_crisp_map(m, tme, alphas):
         for c in cuts:
             for g in (c.inner, c.outer):
                 assert g.geom_type in ("Polygon", "MultiPolygon") and g.is_valid, shapely.is_valid_reason(g)
-            assert shapely.difference(c.inner, crisp).area <= AREA_TOL * crisp.area
-            assert shapely.difference(crisp, c.outer).area <= AREA_TOL * crisp.area
+            assert outside_area(c.inner, crisp) <= AREA_TOL * crisp.area
+            assert outside_area(crisp, c.outer) <= AREA_TOL * crisp.area
         for lo, hi in zip(cuts, cuts[1:]):
-            assert shapely.difference(lo.inner, hi.inner).area <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
-            assert shapely.difference(hi.outer, lo.outer).area <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
+            assert outside_area(lo.inner, hi.inner) <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
+            assert outside_area(hi.outer, lo.outer) <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
         assert cuts[-1].inner.equals(crisp) and cuts[-1].outer.equals(crisp)
 
 

@@ -37,6 +37,8 @@ from .sweep import (ParametricLines, band_parameter, folded_bands, free_space, i
 SHELL = "shell"
 HOLE = "hole"
 METHODS = ("sweep", "exact")
+#: rings of at most this many vertices are made proper in one vectorised GEOS pass
+_SMALL_RING = 64
 #: arcs of the exact α-cuts: segments per quarter circle (GEOS buffer's quad_segs)
 EXACT_QUAD_SEGS = 32
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
@@ -144,6 +146,8 @@ class FuzzyBRepMap:
             "next": nxt,
             "closed_ring": ring_of[closed],
             "own": np.array([orientation(r.vertices) for r in rings]),
+            "ring_polys": shapely.polygons(shapely.linearrings(np.vstack([r.vertices for r in rings])[closed],
+                                                               indices=ring_of[closed])),
         }
 
     @cached_property
@@ -228,9 +232,13 @@ class FuzzyBRepMap:
         return s["V"] + s["TV"] * (t_shrink - 1.0)[:, None], s["V"] + s["TV"] * (t_grow - 1.0)[:, None]
 
     def _proper_all(self, pts: np.ndarray, grow: bool) -> list:
-        """Proper polygon of every ring's offset; the usual case (simple, unfolded) in one pass.
+        """Proper polygon of every ring's offset, vectorised over rings.
 
-        ``grow`` False: principal polygons IN, holes OUT; True: principal OUT, holes IN.
+        ``grow`` False: principal polygons IN, holes OUT; True: principal OUT, holes IN. Rings
+        whose offset is simple, wound like the crisp ring and unfolded (the usual case) are
+        their offset polygons; the others are their crisp polygon minus (IN) or plus (OUT) the
+        swept hulls of their bands: small rings all in one GEOS pass, long ones strip by strip
+        (``sweep.proper_polygon``).
         """
         s = self._stack
         side = np.where(s["shell"] != grow, 1, -1)  # per vertex: +1 IN, −1 OUT
@@ -246,10 +254,97 @@ class FuzzyBRepMap:
         ok = simple & (area * own > 0) & ~folded
         polys = np.empty(len(rings), dtype=object)
         polys[ok] = shapely.polygons(rings[ok])
-        for k in np.flatnonzero(~ok):
+        slow = np.flatnonzero(~ok)
+        small = slow[s["sizes"][slow] <= _SMALL_RING]
+        if len(small):
+            polys[small] = self._swept_small(pts, small, side[s["start"][small]])
+        for k in slow[s["sizes"][slow] > _SMALL_RING]:
             a, n = s["start"][k], s["sizes"][k]
             polys[k] = proper_polygon(V[a:a + n], pts[a:a + n], int(own[k]), int(side[a])).geometry
         return list(polys)
+
+    def _swept_small(self, pts: np.ndarray, rings: np.ndarray, side: np.ndarray) -> np.ndarray:
+        """Proper polygons of short rings: crisp polygon ∓ the union of their bands' swept regions.
+
+        As in ``sweep.proper_polygon``: each run of unfolded bands is one strip polygon when
+        valid (else its bands' hulls), each folded band its convex hull; one row of an array per
+        ring, reduced by GEOS without a Python loop over rings.
+        """
+        s = self._stack
+        V, nxt = s["V"], s["next"]
+        own = s["own"][rings]
+        sizes = s["sizes"][rings]
+        starts = s["start"][rings]
+        ring_row = np.repeat(np.arange(len(rings)), sizes)
+        local = np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+        band = np.repeat(starts, sizes) + local
+        folds = folded_bands(V[band], V[nxt[band]], pts[band] - V[band], pts[nxt[band]] - V[nxt[band]],
+                             np.repeat(own * side, sizes))
+        # rotate every ring to start just after its first folded band, so no run wraps around
+        first = np.full(len(rings), 0)
+        has = np.bincount(ring_row, weights=folds, minlength=len(rings)) > 0
+        idx_first = np.flatnonzero(folds)
+        first_of = np.full(len(rings), np.iinfo(np.int64).max)
+        np.minimum.at(first_of, ring_row[idx_first], local[idx_first])
+        first[has] = first_of[has] + 1
+        rot = np.repeat(starts, sizes) + (local + np.repeat(first, sizes)) % np.repeat(sizes, sizes)
+        good = ~folds[np.searchsorted(band, rot)]  # band is increasing: position of each rotated band
+        # rings without any fold (self-intersecting or inverted offsets): bands one by one
+        good &= np.repeat(has, sizes)
+        prev_good = np.r_[False, good[:-1]] & (np.r_[-1, ring_row[:-1]] == ring_row)
+        run = np.cumsum(good & ~prev_good) - 1
+        run = np.where(good, run, -1)
+        parts_row, parts = [], []
+        if (run >= 0).any():
+            g = np.flatnonzero(run >= 0)
+            rid = run[g]
+            nrun = rid.max() + 1
+            length = np.bincount(rid, minlength=nrun)
+            b0 = rot[g]  # bands of every run, in order
+            last = np.cumsum(length) - 1
+            end_vertex = nxt[b0[last]]
+            # strip: crisp starts of its bands, the end vertex, offsets back, closing vertex
+            crisp_idx = np.insert(b0, last + 1, end_vertex)
+            crisp_run = np.insert(rid, last + 1, np.arange(nrun))
+            offs_idx, offs_run = crisp_idx[::-1], crisp_run[::-1]
+            order = np.argsort(np.concatenate((crisp_run, offs_run)), kind="stable")
+            vidx = np.concatenate((crisp_idx, offs_idx))[order]
+            from_off = np.concatenate((np.zeros(len(crisp_idx), bool), np.ones(len(offs_idx), bool)))[order]
+            vrun = np.concatenate((crisp_run, offs_run))[order]
+            coords = np.where(from_off[:, None], pts[vidx], V[vidx])
+            heads = np.searchsorted(vrun, np.arange(nrun))
+            coords = np.insert(coords, np.r_[heads[1:], len(coords)], coords[heads], axis=0)
+            vrun = np.insert(vrun, np.r_[heads[1:], len(vrun)], np.arange(nrun))
+            strips = shapely.polygons(shapely.linearrings(coords, indices=vrun))
+            run_ring = ring_row[g][np.searchsorted(rid, np.arange(nrun))]
+            x, y = coords[:, 0], coords[:, 1]
+            cross = np.append(x[:-1] * y[1:] - x[1:] * y[:-1], 0.0)
+            cstart = np.searchsorted(vrun, np.arange(nrun))
+            cend = np.r_[cstart[1:], len(coords)] - 1
+            area = 0.5 * (np.add.reduceat(cross, cstart) - cross[cend])
+            fine = shapely.is_valid(strips) & (area * (own * side)[run_ring] > 0)
+            parts_row.append(run_ring[fine])
+            parts.append(strips[fine])
+            good &= ~np.isin(run, np.flatnonzero(~fine))
+        h = ~good
+        hb = rot[h]
+        hulls = shapely.convex_hull(shapely.multipoints(np.stack((V[hb], V[nxt[hb]], pts[nxt[hb]], pts[hb]), axis=1)))
+        parts_row.append(ring_row[h])
+        parts.append(hulls)
+        prow = np.concatenate(parts_row)
+        pgeo = np.concatenate(parts)
+        order = np.argsort(prow, kind="stable")
+        prow, pgeo = prow[order], pgeo[order]
+        col = np.arange(len(prow)) - np.searchsorted(prow, prow)
+        table = np.full((len(rings), (col.max() + 2) if len(col) else 1), None, dtype=object)
+        table[prow, col + 1] = pgeo
+        base = s["ring_polys"][rings]
+        grow = side < 0
+        table[grow, 0] = base[grow]  # one n-ary union with the crisp polygon (see proper_polygon)
+        swept = shapely.union_all(table, axis=1)
+        out = np.where(grow, swept, None)
+        out[~grow] = shapely.difference(base[~grow], swept[~grow])
+        return out
 
     def _combine(self, polys: list) -> shapely.Geometry:
         shells, holes, k = [], [], 0
@@ -259,16 +354,17 @@ class FuzzyBRepMap:
             k += 1 + len(region.holes)
         return free_space(shells, holes)
 
-    def alpha_cut(self, alpha: float, method: str = "sweep") -> AlphaCut:
+    def alpha_cut(self, alpha: float, method: str = "sweep", *, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
         """The α-cut: inner and outer polygons, all valid (thesis 2.1.2, 4.1.2).
 
         ``sweep``: read from the parametric lines and made proper (single normal vertex method).
-        ``exact``: the Extension principle, i.e. the crisp map buffered by −d and +d (round joins).
+        ``exact``: the Extension principle, i.e. the crisp map buffered by −d and +d (round joins,
+        ``quad_segs`` segments per quarter circle).
         α-cuts nest: α1 < α2 gives inner(α1) ⊆ inner(α2) and outer(α2) ⊆ outer(α1).
         """
         alpha = _check_alpha(alpha)
         if method == "exact":
-            return self._exact_cut(alpha)
+            return self._exact_cut(alpha, quad_segs)
         if method != "sweep":
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         shrink, grow = self.offset_vertices(alpha)
@@ -298,7 +394,7 @@ class FuzzyBRepMap:
                 sel = (seg_fm == k) & (seg_shell == shell)
                 if sel.any():
                     lines = shapely.linestrings(segs[sel])
-                    groups.append({"fm": int(k), "shell": shell, "lines": lines,
+                    groups.append({"fm": int(k), "shell": shell, "a": segs[sel][:, 0], "b": segs[sel][:, 1],
                                    "multi": shapely.multilinestrings(lines), "tree": shapely.STRtree(lines)})
         return groups
 
@@ -355,14 +451,17 @@ class FuzzyBRepMap:
         return self._membership_sweep(p)
 
     def _membership_exact(self, p: np.ndarray) -> np.ndarray:
-        inside = shapely.contains_xy(self.crisp_geometry, p[:, 0], p[:, 1])
-        pts = shapely.points(p)
+        x, y = p[:, 0], p[:, 1]
+        inside = shapely.contains_xy(self.crisp_geometry, x, y)
         mu = np.zeros(len(p))
         for g in self._edge_groups:
-            _, dist = g["tree"].query_nearest(pts, return_distance=True, all_matches=False)
+            f = self.table[g["fm"]]
+            reach = max(f.support_in, f.support_out)  # beyond it μ = 0: look no further
+            pi, si = g["tree"].query(shapely.box(x - reach, y - reach, x + reach, y + reach))
+            dist = np.full(len(p), np.inf)
+            np.minimum.at(dist, pi, segment_distance(p[pi], g["a"][si], g["b"][si]))
             # IN of a principal polygon is the free space; IN of a hole is the obstacle
-            x = np.where(inside == g["shell"], -dist, dist)
-            mu = np.maximum(mu, self.table[g["fm"]].mu(x))
+            mu = np.maximum(mu, f.mu(np.where(inside == g["shell"], -dist, dist)))
         return mu
 
     @cached_property
@@ -523,6 +622,15 @@ class FuzzyBRepMap:
     @classmethod
     def load(cls, path: str | os.PathLike, tme: float | None = None) -> "FuzzyBRepMap":
         return cls.from_mapfile(read_map(path), path, tme)
+
+
+def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(m,) Euclidean distance from each point p to its segment a–b, all (m, 2)."""
+    ab, ap = b - a, p - a
+    den = np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+    d = ap - t[:, None] * ab
+    return np.hypot(d[:, 0], d[:, 1])
 
 
 def _check_alpha(alpha) -> float:

@@ -251,12 +251,21 @@ def _swept_parts(crisp: np.ndarray, offset: np.ndarray, sign: int, folds: np.nda
             queue.append((s0, length))
     while queue:
         idx = [((s0 + np.arange(length + 1)) % n) for s0, length in queue]
-        coords = np.concatenate([np.vstack((crisp[i], offset[i[::-1]], crisp[i[:1]])) for i in idx])
-        which = np.repeat(np.arange(len(queue)), [2 * len(i) + 1 for i in idx])
+        order_ = np.concatenate([np.concatenate((i, i[::-1], i[:1])) for i in idx])
+        from_offset = np.concatenate([np.r_[np.zeros(len(i), bool), np.ones(len(i), bool), False] for i in idx])
+        coords = np.where(from_offset[:, None], offset[order_], crisp[order_])
+        sizes = np.array([2 * len(i) + 1 for i in idx])
+        which = np.repeat(np.arange(len(queue)), sizes)
         polys = shapely.polygons(shapely.linearrings(coords, indices=which))
         ok = shapely.is_valid(polys)
-        area = np.array([_strip_area(crisp[i], offset[i]) for i in idx]) * sign
-        ok &= area > 0
+        # shoelace area of every strip at once (each strip's closing vertex repeats its first)
+        x, y = coords[:, 0], coords[:, 1]
+        cross = x[:-1] * y[1:] - x[1:] * y[:-1]
+        starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        area = 0.5 * np.add.reduceat(np.append(cross, 0.0), starts)
+        last = starts + sizes - 1  # the closing vertex to the next strip's first is not an edge
+        area -= 0.5 * np.append(cross, 0.0)[last]
+        ok &= area * sign > 0
         parts.extend(polys[ok])
         nxt_queue = []
         for (s0, length), fine in zip(queue, ok):
@@ -269,10 +278,6 @@ def _swept_parts(crisp: np.ndarray, offset: np.ndarray, sign: int, folds: np.nda
                 parts.append(swept_hulls(crisp[[s0, nxt[s0]]], offset[[s0, nxt[s0]]])[0])
         queue = nxt_queue
     return [q for q in parts if q.geom_type in ("Polygon", "MultiPolygon") and not q.is_empty]
-
-
-def _strip_area(c: np.ndarray, p: np.ndarray) -> float:
-    return signed_area(np.vstack((c, p[::-1])))
 
 
 def proper_polygon(crisp: np.ndarray, offset: np.ndarray, own: int, side: int, *, kept: bool = False,
