@@ -23,8 +23,10 @@ AREA_TOL = 1e-7
 def outside_area(a, b) -> float:
     """Area of a outside b, by snap-rounded overlay: a plain GEOS difference of two polygons equal
     up to the last bits was seen to return all of a."""
+    if a.is_empty:
+        return 0.0
     x0, y0, x1, y1 = shapely.union(a, b).bounds
-    return float(shapely.difference(a, b, grid_size=1e-10 * max(x1 - x0, y1 - y0, 1e-300)).area)
+    return float(shapely.area(shapely.difference(a, b, grid_size=1e-10 * max(x1 - x0, y1 - y0))))
 
 
 def square(side=10.0, holes=()):

@@ -31,8 +31,8 @@ from .brep import FRONTIER, BRepMap, Ring, _nearest_vertex, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
-from .sweep import (ParametricLines, band_parameter, folded_bands, free_space, in_hull, orientation, parametric_lines,
-                    polygonal, proper_polygon)
+from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, orientation,
+                    parametric_lines, polygonal, proper_polygon)
 
 SHELL = "shell"
 HOLE = "hole"
@@ -344,15 +344,23 @@ class FuzzyBRepMap:
         swept = shapely.union_all(table, axis=1)
         out = np.where(grow, swept, None)
         out[~grow] = shapely.difference(base[~grow], swept[~grow])
+        # slivers and collapsed pieces of the overlays would confuse the ones that follow
+        x0, y0 = pts.min(axis=0)
+        x1, y1 = pts.max(axis=0)
+        tiny = 1e-12 * max(x1 - x0, y1 - y0) ** 2
+        bad = (shapely.get_num_geometries(out) > 1) | (shapely.get_num_interior_rings(shapely.get_geometry(out, 0)) > 0)
+        bad |= ~shapely.is_valid(out)
+        for r in np.flatnonzero(bad):
+            out[r] = clean(out[r], tiny)
         return out
 
-    def _combine(self, polys: list) -> shapely.Geometry:
+    def _combine(self, polys: list, disjoint_holes: bool = False) -> shapely.Geometry:
         shells, holes, k = [], [], 0
         for region in self.crisp.regions:
             shells.append(polys[k])
             holes.append(polys[k + 1:k + 1 + len(region.holes)])
             k += 1 + len(region.holes)
-        return free_space(shells, holes)
+        return free_space(shells, holes, disjoint_holes)
 
     def alpha_cut(self, alpha: float, method: str = "sweep", *, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
         """The α-cut: inner and outer polygons, all valid (thesis 2.1.2, 4.1.2).
@@ -369,7 +377,8 @@ class FuzzyBRepMap:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         shrink, grow = self.offset_vertices(alpha)
         inner = self._combine(self._proper_all(shrink, grow=False))
-        outer = self._combine(self._proper_all(grow, grow=True))
+        # shrunk holes stay inside their crisp holes, which do not overlap: no union needed
+        outer = self._combine(self._proper_all(grow, grow=True), disjoint_holes=True)
         return AlphaCut(alpha, method, inner, outer, self.unit)
 
     @cached_property

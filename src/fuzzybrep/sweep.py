@@ -354,15 +354,25 @@ def polygonal(geom) -> shapely.Geometry:
     return parts[0] if len(parts) == 1 else shapely.union_all(parts)
 
 
-def clean(geom, min_area: float = 0.0) -> shapely.Geometry:
+def clean(geom, min_area: float | None = None) -> shapely.Geometry:
     """The polygonal parts of an overlay result without zero-area pieces or holes (slits).
 
-    GEOS overlays of polygons sharing edges can leave a hole of zero area along a shared edge;
-    such a slit is reported valid yet confuses later overlays, so it is dropped here.
+    GEOS overlays of polygons sharing edges can leave a hole of zero area along a shared edge, or
+    a collapsed piece; such slivers are reported valid yet confuse later overlays, so they are
+    dropped here. A result GEOS itself finds invalid (seen, rarely, as nested shells) is rebuilt
+    by the area-preserving "structure" rule of make_valid. ``min_area`` defaults to 1e-12 of the
+    square of the geometry's size.
     """
     g = polygonal(geom)
     if g.is_empty:
         return g
+    if min_area is None:
+        x0, y0, x1, y1 = g.bounds
+        min_area = 1e-12 * max(x1 - x0, y1 - y0) ** 2
+    if not g.is_valid:
+        g = polygonal(shapely.make_valid(g, method="structure", keep_collapsed=False))
+        if g.is_empty:
+            return g
     parts = shapely.get_parts(g)
     area = shapely.area(parts)
     keep = parts[area > min_area]
@@ -379,11 +389,12 @@ def clean(geom, min_area: float = 0.0) -> shapely.Geometry:
     return out[0] if len(out) == 1 else shapely.MultiPolygon(out)
 
 
-def free_space(shells: list, holes: list[list]) -> shapely.Geometry:
+def free_space(shells: list, holes: list[list], disjoint_holes: bool = False) -> shapely.Geometry:
     """Union over regions of (shell polygon minus its hole polygons): the free space of an α-cut.
 
     When every part is a plain polygon and they nest properly (the usual case), the result is
     assembled directly without an overlay, which also keeps the crisp map bit-for-bit at α = 1.
+    ``disjoint_holes``: the caller knows the holes do not overlap, so they need no union.
     """
     pieces = []
     for shell, hs in zip(shells, holes):
@@ -399,12 +410,19 @@ def free_space(shells: list, holes: list[list]) -> shapely.Geometry:
             if g.is_valid:
                 pieces.append(g)
                 continue
-        pieces.append(clean(shapely.difference(shell, shapely.union_all(hs))))
+        obstacles = None
+        if disjoint_holes:
+            obstacles = shapely.multipolygons(np.concatenate([shapely.get_parts(h) for h in hs]))
+            if not obstacles.is_valid:
+                obstacles = None
+        if obstacles is None:
+            obstacles = shapely.union_all(hs)
+        pieces.append(clean(shapely.difference(shell, obstacles)))
     pieces = [g for g in pieces if not g.is_empty]
     if not pieces:
         return shapely.MultiPolygon()
     if len(pieces) == 1:
-        return pieces[0]
+        return clean(pieces[0]) if pieces[0].geom_type == "MultiPolygon" or pieces[0].interiors else pieces[0]
     return clean(shapely.union_all(pieces))
 
 
