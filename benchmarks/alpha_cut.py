@@ -37,12 +37,18 @@ from fuzzybrep.mapfile import write_atomic  # noqa: E402
 from fuzzybrep.membership import DEFAULT_TME_M  # noqa: E402
 
 
-def synthetic_map(seed: int = 0, width: float = 120.0, height: float = 60.0, obstacles: int = 600) -> BRepMap:
-    """A floor of ``width`` × ``height`` m whose walls are jagged like scan-polygon unions (a
-    vertex every 0.15-0.6 m, ±3 cm of noise, door recesses), with many small obstacles."""
+def synthetic_map(seed: int = 0, width: float = 120.0, height: float = 60.0, obstacles: int = 600,
+                  jagged: bool = True) -> BRepMap:
+    """A floor of ``width`` × ``height`` m with door recesses and many obstacles.
+
+    ``jagged``: walls like scan-polygon unions (a vertex every 0.15-0.6 m, ±3 cm of noise) and
+    star-shaped obstacles of 4-24 vertices; otherwise straight walls and rectangular obstacles
+    0.5-2 m wide, like a map of Hough lines."""
     rng = np.random.default_rng(seed)
 
     def wall(p, q):
+        if not jagged:
+            return p[None]
         length = float(np.hypot(*(q - p)))
         steps = np.cumsum(rng.uniform(0.15, 0.6, int(length / 0.15) + 2))
         t = steps[steps < length] / length
@@ -66,13 +72,18 @@ def synthetic_map(seed: int = 0, width: float = 120.0, height: float = 60.0, obs
         if len(holes) >= obstacles:
             break
         c = rng.uniform((1, 1), (width - 1, height - 1))
-        k = int(rng.integers(4, 24))
-        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
-        r = rng.uniform(0.15, 0.9, k)
-        h = shapely.Polygon(np.column_stack((c[0] + r * np.cos(ang), c[1] + r * np.sin(ang))))
-        if not h.is_valid or not h.within(tree_free) or any(h.distance(o) < 0.05 for o in holes[-50:]):
+        if jagged:
+            k = int(rng.integers(4, 24))
+            ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+            r = rng.uniform(0.15, 0.9, k)
+            h = shapely.Polygon(np.column_stack((c[0] + r * np.cos(ang), c[1] + r * np.sin(ang))))
+        else:
+            w, d = rng.uniform(0.5, 2.0, 2)
+            h = shapely.box(c[0], c[1], c[0] + w, c[1] + d)
+        gap = 0.05 if jagged else 0.5
+        if not h.is_valid or not h.within(tree_free) or any(h.distance(o) < gap for o in holes[-50:]):
             continue
-        if holes and shapely.STRtree(holes).query(h, predicate="dwithin", distance=0.05).size:
+        if holes and shapely.STRtree(holes).query(h, predicate="dwithin", distance=gap).size:
             continue
         holes.append(h)
     free = shapely.orient_polygons(shapely.Polygon(free.exterior, [h.exterior for h in holes]))
@@ -142,6 +153,8 @@ def main(argv=None) -> int:
     ap.add_argument("--alpha", type=float, action="append", help="α levels (default 0, 0.25, 0.5, 0.75, 1)")
     ap.add_argument("--repeat", type=int, default=5, help="timings per measurement (median)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the synthetic map")
+    ap.add_argument("--clean", action="store_true",
+                    help="synthetic map with straight walls and rectangular obstacles (default: jagged)")
     ap.add_argument("--out", help="also write the Markdown report to this file")
     args = ap.parse_args(argv)
     alphas = args.alpha or [0.0, 0.25, 0.5, 0.75, 1.0]
@@ -149,9 +162,9 @@ def main(argv=None) -> int:
         fz = FuzzyBRepMap.load(args.map, tme=args.tme if args.tme is not None else DEFAULT_TME_M)
         label = Path(args.map).name
     else:
-        crisp = synthetic_map(args.seed)
+        crisp = synthetic_map(args.seed, jagged=not args.clean)
         fz = fuzzify(crisp, tme=args.tme)
-        label = f"synthetic floor (seed {args.seed})"
+        label = f"synthetic floor, {'clean' if args.clean else 'jagged'} (seed {args.seed})"
     report = run(fz, alphas, args.repeat, label)
     print(report)
     if args.out:

@@ -31,8 +31,8 @@ from .brep import FRONTIER, BRepMap, Ring, _nearest_vertex, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
-from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, orientation,
-                    parametric_lines, polygonal, proper_polygon)
+from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, normal_vertices_stacked,
+                    polygonal, proper_polygon)
 
 SHELL = "shell"
 HOLE = "hole"
@@ -133,8 +133,9 @@ class FuzzyBRepMap:
         closed = np.concatenate([np.append(np.arange(s, s + n), s) for s, n in zip(start, sizes)])
         nxt = np.arange(len(ring_of)) + 1
         nxt[start + sizes - 1] = start
+        V = np.vstack([ln.vertices for ln in self.lines])
         return {
-            "V": np.vstack([ln.vertices for ln in self.lines]),
+            "V": V,
             "TV": np.vstack([np.column_stack((ln.T, ln.V)) for ln in self.lines]),
             "SI": np.concatenate([ln.support_in for ln in self.lines]),
             "fm": np.concatenate([r.fm for r in rings]),
@@ -145,7 +146,7 @@ class FuzzyBRepMap:
             "closed": closed,
             "next": nxt,
             "closed_ring": ring_of[closed],
-            "own": np.array([orientation(r.vertices) for r in rings]),
+            "own": np.sign(np.add.reduceat(V[:, 0] * V[nxt, 1] - V[nxt, 0] * V[:, 1], start)).astype(np.int64),
             "ring_polys": shapely.polygons(shapely.linearrings(np.vstack([r.vertices for r in rings])[closed],
                                                                indices=ring_of[closed])),
         }
@@ -251,7 +252,10 @@ class FuzzyBRepMap:
         V = s["V"]
         folds = folded_bands(V, V[nxt], pts - V, pts[nxt] - V[nxt], own[s["ring_of"]] * side)
         folded = np.bincount(s["ring_of"], weights=folds, minlength=len(rings)) > 0
-        ok = simple & (area * own > 0) & ~folded
+        # a ring collapsed to (almost) nothing is not a polygon: it goes the slow way and vanishes
+        extent = np.maximum(np.maximum.reduceat(x, s["start"]) - np.minimum.reduceat(x, s["start"]),
+                            np.maximum.reduceat(y, s["start"]) - np.minimum.reduceat(y, s["start"]))
+        ok = simple & (area * own > 1e-12 * extent * extent) & ~folded
         polys = np.empty(len(rings), dtype=object)
         polys[ok] = shapely.polygons(rings[ok])
         slow = np.flatnonzero(~ok)
@@ -349,7 +353,7 @@ class FuzzyBRepMap:
         x1, y1 = pts.max(axis=0)
         tiny = 1e-12 * max(x1 - x0, y1 - y0) ** 2
         bad = (shapely.get_num_geometries(out) > 1) | (shapely.get_num_interior_rings(shapely.get_geometry(out, 0)) > 0)
-        bad |= ~shapely.is_valid(out)
+        bad |= ~shapely.is_valid(out) | (shapely.area(out) <= tiny)
         for r in np.flatnonzero(bad):
             out[r] = clean(out[r], tiny)
         return out
@@ -703,17 +707,27 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)
-    for name, r in zip(names, crisp.rings):
-        bad = table.check_indices(r.fm)
-        if bad is not None:
-            raise GeometryError(f"FM index {int(r.fm[bad])} has no membership function in the table "
-                                f"(indices: {', '.join(map(str, table.indices))})", ring=name, vertex=bad + 1)
+    rings = crisp.rings
+    sizes = np.array([len(r) for r in rings])
+    fm = np.concatenate([r.fm for r in rings])
+    bad = table.check_indices(fm)
+    if bad is not None:
+        k = int(np.searchsorted(np.cumsum(sizes), bad, side="right"))
+        local = bad - int(np.sum(sizes[:k]))
+        raise GeometryError(f"FM index {int(fm[bad])} has no membership function in the table "
+                            f"(indices: {', '.join(map(str, table.indices))})", ring=names[k], vertex=local + 1)
+    V = np.vstack([r.vertices for r in rings])
+    try:
+        bisector, _ = normal_vertices_stacked(V, sizes)
+    except GeometryError as e:
+        raise GeometryError(e.reason, ring=names[int(e.ring)], vertex=e.vertex) from None
+    si, so = table.support_in(fm), table.support_out(fm)
     lines = []
-    for name, r in zip(names, crisp.rings):
-        try:
-            lines.append(parametric_lines(r.vertices, table.support_in(r.fm), table.support_out(r.fm)))
-        except GeometryError as e:
-            raise GeometryError(e.reason, ring=name, vertex=e.vertex) from None
+    for a, n in zip(np.concatenate(([0], np.cumsum(sizes)[:-1])), sizes):
+        parts = [V[a:a + n], bisector[a:a + n], si[a:a + n], so[a:a + n]]
+        for arr in parts:
+            arr.setflags(write=False)
+        lines.append(ParametricLines(*parts))
     return FuzzyBRepMap(crisp, table, tuple(lines))
 
 
@@ -725,8 +739,25 @@ def validate_map(crisp: BRepMap) -> None:
     if not crisp.regions:
         raise GeometryError("the map has no regions")
     names = crisp.ring_names()
-    for name, ring in zip(names, crisp.rings):
-        validate_ring(ring.vertices, name)
+    rings = crisp.rings
+    sizes = np.array([len(r) for r in rings])
+    suspect = sizes < 3
+    if not suspect.any():
+        V = np.vstack([r.vertices for r in rings])
+        start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        ring_of = np.repeat(np.arange(len(rings)), sizes)
+        nxt = np.arange(len(V)) + 1
+        nxt[start + sizes - 1] = start
+        finite = np.isfinite(V).all(axis=1)
+        dup = np.all(V == V[nxt], axis=1)
+        x, y = V[:, 0], V[:, 1]
+        area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+        closed = np.concatenate([np.append(np.arange(a, a + n), a) for a, n in zip(start, sizes)])
+        simple = shapely.is_simple(shapely.linearrings(np.where(finite[:, None], V, 0.0)[closed],
+                                                       indices=ring_of[closed]))
+        suspect = (np.bincount(ring_of, weights=~finite | dup, minlength=len(rings)) > 0) | (area == 0) | ~simple
+    for k in np.flatnonzero(suspect):  # the detailed message comes from validate_ring
+        validate_ring(rings[k].vertices, names[k])
     k = 0
     for region in crisp.regions:
         g = region.to_shapely()

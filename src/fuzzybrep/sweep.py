@@ -76,6 +76,45 @@ def normal_vertices(vertices: np.ndarray) -> np.ndarray:
     return b / norm[:, None]
 
 
+def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``normal_vertices`` of many rings stacked in one (N, 2) array, ring k having sizes[k]
+    vertices; also returns every ring's orientation. One pass over all vertices.
+
+    Raises GeometryError with ``vertex`` (1-based, within its ring) and the ring's position in
+    ``ring`` (as a string) for a ring without area or with a repeated vertex.
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    sizes = np.asarray(sizes)
+    start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    ring = np.repeat(np.arange(len(sizes)), sizes)
+    nxt = np.arange(len(v)) + 1
+    nxt[start + sizes - 1] = start
+    prv = np.empty_like(nxt)
+    prv[nxt] = np.arange(len(v))
+    x, y = v[:, 0], v[:, 1]
+    area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+    bad = ~np.isfinite(area) | (area == 0)
+    if bad.any():
+        raise GeometryError("ring has no area, so it has no inside to offset into", ring=str(int(np.argmax(bad))))
+    own = np.where(area > 0, 1, -1)
+    d = v[nxt] - v
+    length = np.hypot(d[:, 0], d[:, 1])
+    if np.any(length == 0):
+        i = int(np.argmax(length == 0))
+        k = ring[i]
+        local = i - start[k]
+        raise GeometryError(f"repeats vertex {(local + 1) % sizes[k] + 1}", ring=str(int(k)), vertex=int(local) + 1)
+    d /= length[:, None]
+    n = own[ring][:, None] * np.column_stack((-d[:, 1], d[:, 0]))
+    b = n[prv] + n
+    norm = np.hypot(b[:, 0], b[:, 1])
+    spike = norm < _SPIKE
+    if spike.any():
+        b[spike] = -d[prv][spike]
+        norm[spike] = 1.0
+    return b / norm[:, None], own
+
+
 @dataclass(frozen=True, eq=False)
 class ParametricLines:
     """The parametric lines of one ring's vertices (Table 4.1's T, U, V, W), with their supports.
@@ -306,7 +345,9 @@ def proper_polygon(crisp: np.ndarray, offset: np.ndarray, own: int, side: int, *
     sign = own * side
     closed = np.vstack((p, p[:1]))
     folds = band_folds(c, p, sign)
-    simple = bool(shapely.is_simple(shapely.linearrings(closed))) and signed_area(p) * own > 0 and not folds.any()
+    size = float(np.ptp(p, axis=0).max())
+    simple = (bool(shapely.is_simple(shapely.linearrings(closed))) and signed_area(p) * own > 1e-12 * size * size
+              and not folds.any())
     if simple:
         geom = shapely.polygons(closed)
         flags = np.ones(n, bool)
