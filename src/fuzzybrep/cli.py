@@ -16,6 +16,11 @@ from .errors import FuzzyBrepError
 COMMANDS = [
     "build",
     "export",
+    "fuzzify",
+    "tables",
+    "alpha_cut",
+    "membership",
+    "memory",
     "simulate",
     "umbmark",
 ]

@@ -1,0 +1,79 @@
+"""Options and loading shared by the fuzzy B-rep commands (and by ``build``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ..brep import BRepMap
+from ..errors import MembershipFunctionError
+from ..fuzzy import FuzzyBRepMap, fuzzify
+from ..geojson import read_geojson
+from ..mapfile import FORMAT, from_json
+from ..membership import DEFAULT_TME_M, parse_spec, total_maximum_error
+
+
+def add_mf_arguments(parser: argparse.ArgumentParser, default_tme: float | None = None) -> None:
+    """--tme / --laser-error + --odometry-error, --mf, --frontier-mf (for fuzzify and build)."""
+    g = parser.add_argument_group("sensor uncertainty (thesis 4.1.1)")
+    dflt = f" (default {default_tme:g})" if default_tme is not None else ""
+    g.add_argument("--tme", type=float, default=None,
+                   help=f"total maximum error, in the map's unit{dflt}: the support ±TME of the membership function")
+    g.add_argument("--laser-error", type=float, default=None, help="laser range error; TME = |laser| + |odometry|")
+    g.add_argument("--odometry-error", type=float, default=None, help="odometry error (UMBmark); TME = |laser| + |odometry|")
+    g.add_argument("--mf", default="triangular", metavar="SPEC",
+                   help="membership function: triangular (default), triangular:in=A,out=B, A1:p=P, A4:p=P, "
+                        "A2:p=P,truncate, A3:p=P,truncate; a missing TME comes from --tme")
+    g.add_argument("--frontier-mf", default=None, metavar="SPEC",
+                   help="a second membership function for vertices on frontier edges")
+    parser.set_defaults(_default_tme=default_tme)
+
+
+def tme_from_args(args: argparse.Namespace, required: bool = False) -> float | None:
+    if args.laser_error is not None or args.odometry_error is not None:
+        if args.tme is not None:
+            raise MembershipFunctionError("give --tme or --laser-error/--odometry-error, not both")
+        return total_maximum_error(args.laser_error or 0.0, args.odometry_error or 0.0)
+    if args.tme is not None:
+        return args.tme
+    if getattr(args, "_default_tme", None) is not None:
+        return args._default_tme
+    if required:
+        raise MembershipFunctionError("the map's unit is unknown: give --tme (or --laser-error and --odometry-error)")
+    return None
+
+
+def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bool = False) -> FuzzyBRepMap:
+    """fuzzify() with the options of ``add_mf_arguments``."""
+    tme = tme_from_args(args, tme_required)
+    mf = parse_spec(args.mf, tme)
+    frontier = parse_spec(args.frontier_mf, tme) if args.frontier_mf else None
+    return fuzzify(crisp, mf, frontier_mf=frontier)
+
+
+def add_map_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("map", metavar="MAP.json", help="a fuzzybrep map file")
+    parser.add_argument("--tme", type=float, default=None,
+                        help="fuzzify a crisp map (one without Table 4.2) with this TME on the fly")
+
+
+def load_map(args: argparse.Namespace) -> FuzzyBRepMap:
+    return FuzzyBRepMap.load(args.map, tme=args.tme)
+
+
+def read_crisp(path: str | Path, unit: str) -> BRepMap:
+    """A crisp map from GeoJSON, or from a fuzzybrep map file (its crisp part)."""
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        try:
+            obj = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            obj = None
+        if isinstance(obj, dict) and obj.get("format") == FORMAT:
+            return from_json(obj, path).crisp
+    return read_geojson(path, unit)
+
+
+__all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "read_crisp",
+           "tme_from_args"]

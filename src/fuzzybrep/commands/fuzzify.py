@@ -1,0 +1,26 @@
+"""fuzzybrep fuzzify: a crisp map (GeoJSON floor plan or map file) to a fuzzy B-rep map file."""
+
+from __future__ import annotations
+
+import argparse
+
+from ._maps import add_mf_arguments, fuzzify_from_args, read_crisp
+
+NAME = "fuzzify"
+HELP = "fuzzify a crisp map given as GeoJSON (Polygon/MultiPolygon with holes) into a fuzzy B-rep map"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("crisp", metavar="CRISP.geojson", help="crisp map: GeoJSON, or a fuzzybrep map file")
+    p.add_argument("--unit", default="m", help="unit of the coordinates and of --tme (default m)")
+    p.add_argument("--out", required=True, metavar="MAP.json", help="fuzzy B-rep map file to write")
+    add_mf_arguments(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    crisp = read_crisp(args.crisp, args.unit)
+    fuzzy = fuzzify_from_args(crisp, args, tme_required=True)
+    size = fuzzy.save(args.out, metadata={"source": str(args.crisp)})
+    print(f"{args.out}: {len(fuzzy.crisp.rings)} rings ({fuzzy.crisp.n_holes} holes), "
+          f"{fuzzy.crisp.n_vertices} vertices, {len(fuzzy.table)} membership function(s), {size} bytes")
+    return 0

@@ -1,0 +1,187 @@
+"""GeoJSON in and out: crisp maps from floor plans, α-cuts as FeatureCollections, point lists.
+
+A crisp map can come as a GeoJSON Polygon, MultiPolygon, Feature or FeatureCollection of those,
+in any unit (GeoJSON says nothing about it: the caller does). Every ring is checked and a bad
+one is refused naming the feature, polygon, ring and vertex as numbered in the file (1-based).
+Overlapping polygons are united; the result is a BRepMap (largest piece = principal polygon,
+shells counter-clockwise, holes clockwise).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from .brep import BRepMap, _nearest_vertex, validate_ring
+from .errors import GeometryError, MapFileError
+
+POLYGONAL = ("Polygon", "MultiPolygon")
+
+
+def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
+    """The crisp map in a GeoJSON file. MapFileError for unreadable files or wrong structure,
+    GeometryError (naming feature, polygon, ring and vertex) for bad geometry."""
+    path = Path(path)
+    try:
+        raw = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
+    try:
+        obj = json.loads(raw)
+    except json.JSONDecodeError as e:
+        raise MapFileError(path, f"not valid JSON ({e})") from None
+    try:
+        return crisp_from_geojson(obj, unit)
+    except ValueError as e:
+        if isinstance(e, GeometryError):
+            raise
+        raise MapFileError(path, str(e)) from None
+
+
+def crisp_from_geojson(obj, unit: str = "m") -> BRepMap:
+    """The crisp map in a parsed GeoJSON object (see ``read_geojson``)."""
+    polygons = [_polygon(coords, where) for coords, where in _polygon_coords(obj)]
+    if not polygons:
+        raise ValueError("no Polygon or MultiPolygon in the GeoJSON")
+    geom = polygons[0] if len(polygons) == 1 else shapely.union_all(polygons)
+    return BRepMap.from_shapely(geom, unit)
+
+
+def _polygon_coords(obj, where: str = ""):
+    """Yield (coordinates of one polygon, its name) from any GeoJSON object."""
+    if not isinstance(obj, dict):
+        raise ValueError(_at(where, f"expected a GeoJSON object, got {type(obj).__name__}"))
+    kind = obj.get("type")
+    if kind == "FeatureCollection":
+        feats = obj.get("features")
+        if not isinstance(feats, list):
+            raise ValueError("FeatureCollection has no list of features")
+        for i, f in enumerate(feats):
+            yield from _polygon_coords(f, f"feature {i + 1}")
+    elif kind == "Feature":
+        g = obj.get("geometry")
+        if g is None:
+            return  # a feature without geometry carries nothing for the map
+        yield from _polygon_coords(g, where or "feature")
+    elif kind == "GeometryCollection":
+        for i, g in enumerate(obj.get("geometries") or []):
+            yield from _polygon_coords(g, f"{where + ' ' if where else ''}geometry {i + 1}")
+    elif kind == "Polygon":
+        yield obj.get("coordinates"), (where + " polygon").strip()
+    elif kind == "MultiPolygon":
+        coords = obj.get("coordinates")
+        if not isinstance(coords, list):
+            raise ValueError(_at(where, "MultiPolygon coordinates must be a list"))
+        for j, c in enumerate(coords):
+            yield c, f"{where + ' ' if where else ''}polygon {j + 1}"
+    elif kind in ("Point", "MultiPoint", "LineString", "MultiLineString"):
+        raise ValueError(_at(where, f"a {kind} has no area; a crisp map needs Polygon or MultiPolygon"))
+    else:
+        raise ValueError(_at(where, f"unknown GeoJSON type {kind!r}"))
+
+
+def _at(where: str, message: str) -> str:
+    return f"{where}: {message}" if where else message
+
+
+def _ring(coords, name: str) -> np.ndarray:
+    if not isinstance(coords, list):
+        raise GeometryError("a ring must be a list of positions", ring=name)
+    out = np.empty((len(coords), 2))
+    for j, pos in enumerate(coords):
+        if not isinstance(pos, (list, tuple)) or len(pos) < 2:
+            raise GeometryError(f"position {pos!r} is not [x, y]", ring=name, vertex=j + 1)
+        try:
+            x, y = float(pos[0]), float(pos[1])
+        except (TypeError, ValueError):
+            raise GeometryError(f"position {pos!r} is not [x, y] numbers", ring=name, vertex=j + 1) from None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise GeometryError("coordinate is not finite", ring=name, vertex=j + 1)
+        out[j] = x, y
+    if len(out) > 1 and np.array_equal(out[0], out[-1]):
+        out = out[:-1]  # GeoJSON closes rings by repeating the first position; we do not
+    validate_ring(out, name)
+    return out
+
+
+def _polygon(coords, where: str) -> shapely.Polygon:
+    if not isinstance(coords, list) or not coords:
+        raise GeometryError("a polygon needs at least its outer ring", ring=where)
+    names = [f"{where} outer ring"] + [f"{where} hole {k}" for k in range(1, len(coords))]
+    rings = [_ring(c, n) for c, n in zip(coords, names)]
+    poly = shapely.Polygon(rings[0], rings[1:])
+    if not poly.is_valid:
+        reason = shapely.is_valid_reason(poly)
+        allv = np.vstack(rings)
+        v = _nearest_vertex(allv, reason)
+        name, vertex = where, None
+        if v is not None:
+            sizes = np.cumsum([len(r) for r in rings])
+            k = int(np.searchsorted(sizes, v - 1, side="right"))
+            name, vertex = names[k], v - (int(sizes[k - 1]) if k else 0)
+        raise GeometryError(f"invalid polygon: {reason}", ring=name, vertex=vertex)
+    return poly
+
+
+def geometry_json(geom) -> dict:
+    """A (Multi)Polygon as a GeoJSON geometry; an empty one as an empty MultiPolygon."""
+    if geom is None or geom.is_empty:
+        return {"type": "MultiPolygon", "coordinates": []}
+    return json.loads(shapely.to_geojson(geom))
+
+
+def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
+    """A FeatureCollection of α-cuts: features with properties role (crisp, inner, outer) and alpha."""
+    features = []
+    if crisp is not None:
+        features.append({"type": "Feature", "properties": {"role": "crisp", "alpha": 1.0, "unit": crisp.unit},
+                         "geometry": geometry_json(crisp.to_shapely())})
+    for c in cuts:
+        for role, g in (("inner", c.inner), ("outer", c.outer)):
+            features.append({"type": "Feature",
+                             "properties": {"role": role, "alpha": c.alpha, "method": c.method, "unit": c.unit},
+                             "geometry": geometry_json(g)})
+    return {"type": "FeatureCollection", "features": features}
+
+
+def read_points(path: str | os.PathLike) -> np.ndarray:
+    """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional."""
+    path = Path(path)
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError) as e:
+        raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
+    pts = []
+    first = True
+    for line, row in enumerate(rows, 1):
+        cells = [c.strip() for c in row]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        header, first = first, False
+        if len(cells) < 2:
+            raise MapFileError(path, f"line {line}: expected x,y, got {','.join(cells)!r}")
+        try:
+            x, y = float(cells[0]), float(cells[1])
+        except ValueError:
+            if header and not any(_number(c) for c in cells[:2]):
+                continue  # a header line such as "x,y"
+            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[0]!r}, {cells[1]!r}") from None
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise MapFileError(path, f"line {line}: x,y must be finite")
+        pts.append((x, y))
+    return np.array(pts, dtype=np.float64).reshape(-1, 2)
+
+
+def _number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False

@@ -1,0 +1,303 @@
+"""The fuzzy B-rep map: fuzzify, Tables 4.1-4.3, α-cuts, membership, approximation error, Table 5.3."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES, crisp_maps, dumbbell, thesis_map
+from fuzzybrep.brep import FRONTIER, OBSTACLE, BRepMap, Region, Ring
+from fuzzybrep.errors import GeometryError, MapFileError, MembershipFunctionError
+from fuzzybrep.fuzzy import FuzzyBRepMap, approximation_error, default_tme, fuzzify, memory_table
+from fuzzybrep.mapfile import MapFile, write_map
+from fuzzybrep.membership import A4, DEFAULT_TME_M, MembershipTable, Triangular
+
+AREA_TOL = 1e-7
+
+
+def outside_area(a, b) -> float:
+    """Area of a outside b, by snap-rounded overlay: a plain GEOS difference of two polygons equal
+    up to the last bits was seen to return all of a."""
+    if a.is_empty:
+        return 0.0
+    x0, y0, x1, y1 = shapely.union(a, b).bounds
+    return float(shapely.area(shapely.difference(a, b, grid_size=1e-10 * max(x1 - x0, y1 - y0))))
+
+
+def square(side=10.0, holes=()):
+    return BRepMap.from_shapely(shapely.Polygon([(0, 0), (side, 0), (side, side), (0, side)], holes))
+
+
+# -- fuzzify and the tables -------------------------------------------------------------------
+
+
+def test_table_4_1_through_fuzzify():
+    fz = fuzzify(thesis_map(), tme=200)
+    t = fz.vertex_table(0)
+    cols = np.column_stack([t[c] for c in ("XOUT", "YOUT", "XIN", "YIN", "T", "U", "V", "W")])
+    np.testing.assert_allclose(cols, TABLE_4_1, atol=0.05)
+    assert np.array_equal(np.column_stack((t["X"], t["Y"])), TABLE_4_1_VERTICES)
+    assert t["FM"].tolist() == [1] * 8
+    e = fz.edge_table(0)  # Table 4.3: no offset vertex deleted here
+    assert e["VSTART"].tolist() == list(range(1, 9)) and e["VEND"].tolist() == [2, 3, 4, 5, 6, 7, 8, 1]
+    assert e["EDGE_IN"].tolist() == e["EDGE_OUT"].tolist() == list(range(1, 9))
+    assert fz.membership_table()[0]["PARAMETERS"].startswith("a = -200; b = 200; TME = 200")
+
+
+def test_default_tme_is_the_thesis_one_in_the_map_unit():
+    assert default_tme("m") == DEFAULT_TME_M
+    assert default_tme("mm") == pytest.approx(199.13)
+    fz = fuzzify(square())
+    assert fz.table[1] == Triangular(DEFAULT_TME_M)
+    with pytest.raises(MembershipFunctionError, match="no default TME for unit 'ft'"):
+        fuzzify(BRepMap(square().regions, unit="ft"))
+    with pytest.raises(MembershipFunctionError, match="either"):
+        fuzzify(square(), Triangular(1), tme=1)
+
+
+def test_fuzzify_refuses_invalid_maps_naming_the_vertex():
+    bowtie = BRepMap((Region(Ring([(0, 0), (4, 0), (0, 4), (6, 4)])),))
+    with pytest.raises(GeometryError, match="principal, vertex") as e:
+        fuzzify(bowtie, tme=0.1)
+    assert e.value.ring == "principal" and e.value.vertex in (2, 3)
+    outside = BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)]), (Ring([(3, 3), (3, 5), (5, 5), (5, 3)]),)),))
+    with pytest.raises(GeometryError, match="invalid region") as e:
+        fuzzify(outside, tme=0.1)
+    assert e.value.ring in ("principal", "hole 1") and e.value.vertex is not None
+    bad_fm = BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)], fm=[1, 1, 2, 1])),))
+    with pytest.raises(GeometryError, match="principal, vertex 3: FM index 2 has no membership function"):
+        fuzzify(bad_fm, tme=0.1)
+
+
+def test_tables_mark_deleted_vertices_null():
+    v = np.array([(0, 0), (10, 0), (10, 9.5), (9.5, 10), (0, 10)], float)
+    fz = fuzzify(BRepMap((Region(Ring(v)),)), tme=2.0)
+    t = fz.vertex_table(0)
+    assert np.isnan(t["XIN"][[2, 3]]).all() and np.isnan(t["YIN"][[2, 3]]).all()
+    assert np.isfinite(t["XIN"][[0, 1, 4]]).all() and np.isfinite(t["XOUT"]).all()
+    assert np.isfinite(t["T"]).all()  # the line stays: the vertex survives at higher α
+    e = fz.edge_table(0)
+    assert e["EDGE_IN"][2] == 0 and e["VIN_START"][2] == 0 and e["VIN_END"][1] == 0
+    assert e["EDGE_IN"][0] == 1
+
+
+def test_frontier_vertices_get_their_own_function():
+    ring = Ring([(0, 0), (10, 0), (10, 10), (0, 10)], kinds=[OBSTACLE, FRONTIER, OBSTACLE, OBSTACLE])
+    fz = fuzzify(BRepMap((Region(ring),)), tme=0.2, frontier_mf=Triangular(1.0))
+    assert fz.table.indices == [1, 2]
+    assert fz.crisp.principal.fm.tolist() == [1, 2, 2, 1]  # ends of the frontier edge
+    assert fz.lines[0].support_in.tolist() == [0.2, 1.0, 1.0, 0.2]
+
+
+# -- α-cuts ------------------------------------------------------------------------------------
+
+
+def test_alpha_one_is_the_crisp_map():
+    m = square(10, [[(2, 2), (2, 3), (3, 3), (3, 2)]])
+    fz = fuzzify(m, tme=0.5)
+    for method in ("sweep", "exact"):
+        c = fz.alpha_cut(1.0, method)
+        assert c.inner.equals(m.to_shapely()) and c.outer.equals(m.to_shapely())
+
+
+def test_square_alpha_cuts_match_the_bisector_construction():
+    fz = fuzzify(square(10), tme=1.0)
+    c = fz.alpha_cut(0.0)
+    s = 1 / math.sqrt(2)  # perpendicular offset of a 90° corner moved 1 along its bisector
+    assert c.inner.area == pytest.approx((10 - 2 * s) ** 2)
+    assert c.outer.area == pytest.approx((10 + 2 * s) ** 2)
+    e = fz.alpha_cut(0.0, "exact")
+    assert e.inner.area == pytest.approx(64)
+    assert e.outer.area == pytest.approx(100 + 40 + math.pi, rel=1e-3)
+
+
+def test_holes_grow_into_free_space_in_the_inner_cut():
+    m = square(10, [[(4, 4), (4, 6), (6, 6), (6, 4)]])
+    fz = fuzzify(m, tme=0.5)
+    c = fz.alpha_cut(0.0)
+    hole_in_inner = shapely.Polygon(c.inner.interiors[0])
+    hole_in_outer = shapely.Polygon(c.outer.interiors[0])
+    assert hole_in_inner.area > 4 > hole_in_outer.area
+    assert c.band.area == pytest.approx(c.outer.area - c.inner.area)
+
+
+def test_narrow_corridor_splits_the_inner_cut_into_pieces():
+    fz = fuzzify(BRepMap.from_shapely(dumbbell(0.5)), tme=0.6)
+    c = fz.alpha_cut(0.0)
+    assert c.inner.geom_type == "MultiPolygon" and len(c.inner.geoms) == 2
+    pieces = c.inner_map()
+    assert len(pieces.regions) == 2 and pieces.principal is not None
+    assert fz.alpha_cut(0.9).inner.geom_type == "Polygon"  # at high α the corridor is open
+
+
+def test_asymmetric_function_offsets_each_side_by_its_support():
+    fz = fuzzify(square(10), Triangular(tme_in=1.0, tme_out=2.0))
+    v = fz.crisp.principal.vertices
+    shrink, grow = fz.offset_vertices(0.0)
+    assert np.hypot(*(shrink - v).T) == pytest.approx(np.full(4, 1.0))
+    assert np.hypot(*(grow - v).T) == pytest.approx(np.full(4, 2.0))
+    shrink, grow = fz.offset_vertices(0.5)
+    assert np.hypot(*(grow - v).T) == pytest.approx(np.full(4, 1.0))
+
+
+def test_bad_alpha_and_method():
+    fz = fuzzify(square(), tme=0.1)
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        fz.alpha_cut(1.2)
+    with pytest.raises(ValueError, match="method"):
+        fz.alpha_cut(0.5, "buffer")
+
+
+def random_points(g, rng, n=300):
+    x0, y0, x1, y1 = g.bounds
+    pad = 0.3 * max(x1 - x0, y1 - y0)
+    return rng.uniform([x0 - pad, y0 - pad], [x1 + pad, y1 + pad], (n, 2))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(m=crisp_maps(), tme=st.floats(0.02, 3.0), alphas=st.lists(st.floats(0, 1), min_size=2, max_size=2))
+def test_alpha_cuts_nest_are_valid_and_end_at_the_crisp_map(m, tme, alphas):
+    fz = fuzzify(m, tme=tme)
+    crisp = m.to_shapely()
+    levels = [0.0, *sorted(alphas), 1.0]
+    for method in ("sweep", "exact"):
+        cuts = [fz.alpha_cut(a, method) for a in levels]
+        for c in cuts:
+            for g in (c.inner, c.outer):
+                assert g.geom_type in ("Polygon", "MultiPolygon") and g.is_valid, shapely.is_valid_reason(g)
+            assert outside_area(c.inner, crisp) <= AREA_TOL * crisp.area
+            assert outside_area(crisp, c.outer) <= AREA_TOL * crisp.area
+        for lo, hi in zip(cuts, cuts[1:]):
+            assert outside_area(lo.inner, hi.inner) <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
+            assert outside_area(hi.outer, lo.outer) <= AREA_TOL * crisp.area, (method, lo.alpha, hi.alpha)
+        assert cuts[-1].inner.equals(crisp) and cuts[-1].outer.equals(crisp)
+
+
+# -- membership --------------------------------------------------------------------------------
+
+
+def boundary_points(m: BRepMap, rng, n=200) -> np.ndarray:
+    lines = shapely.boundary(m.to_shapely())
+    return shapely.get_coordinates(shapely.line_interpolate_point(lines, rng.uniform(0, 1, n), normalized=True))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(m=crisp_maps(), tme=st.floats(0.02, 3.0), seed=st.integers(0, 2**32 - 1), alpha=st.floats(0, 1))
+def test_membership_properties(m, tme, seed, alpha):
+    """μ = 1 on the crisp boundary, 0 beyond the support, in [0, 1], and μ ≥ α exactly on the
+    band of the α-cut (away from its boundary), for both methods."""
+    rng = np.random.default_rng(seed)
+    fz = fuzzify(m, tme=tme)
+    crisp = m.to_shapely()
+    pts = random_points(crisp, rng)
+    far = shapely.distance(shapely.boundary(crisp), shapely.points(pts)) > tme * (1 + 1e-9)
+    on = boundary_points(m, rng)
+    for method in ("sweep", "exact"):
+        mu = fz.membership(pts, method)
+        assert np.all((mu >= 0) & (mu <= 1))
+        assert np.all(mu[far] == 0)
+        assert fz.membership(on, method) == pytest.approx(np.ones(len(on)), abs=1e-9)
+        band = fz.alpha_cut(alpha, method).band
+        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
+        # exact cuts are buffers whose arcs are chords (32 per quarter circle): 3e-4 of the radius off
+        margin = (1e-6 if method == "sweep" else 1e-3) * tme
+        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > margin if not band.is_empty \
+            else np.ones(len(pts), bool)
+        level = mu > 0 if alpha == 0 else mu >= alpha  # the 0-cut is the support: μ > 0
+        assert np.array_equal(level[clear], inb[clear]), method
+
+
+def test_membership_of_a_square():
+    fz = fuzzify(square(10), tme=1.0)
+    pts = np.array([[5, 0], [5, 0.5], [5, -0.5], [5, 5], [5, -2], [0, 0]])
+    assert fz.membership(pts, "exact") == pytest.approx([1, 0.5, 0.5, 0, 0, 1])
+    # the sweep's support edge is 1/√2 from the wall: μ = 1 − 0.5·√2 there
+    assert fz.membership(pts, "sweep") == pytest.approx([1, 1 - 0.5 * math.sqrt(2), 1 - 0.5 * math.sqrt(2), 0, 0, 1])
+
+
+def test_membership_with_mixed_functions_uses_each_vertex_function():
+    ring = Ring([(0, 0), (10, 0), (10, 10), (0, 10)], fm=[1, 2, 2, 1])
+    fz = fuzzify(BRepMap((Region(ring),)), {1: Triangular(1.0), 2: A4(0.5)})
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-3, 13, (2000, 2))
+    mu = fz.membership(pts)
+    for a in (0.2, 0.5, 0.8):
+        band = fz.alpha_cut(a).band
+        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
+        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
+        assert np.array_equal((mu >= a)[clear], inb[clear])
+
+
+def test_membership_input_checks():
+    fz = fuzzify(square(), tme=0.1)
+    assert fz.membership(np.zeros((0, 2))).shape == (0,)
+    with pytest.raises(ValueError, match=r"\(m, 2\)"):
+        fz.membership(np.zeros(3))
+    with pytest.raises(ValueError, match="point 2 is not finite"):
+        fz.membership([[0, 0], [np.nan, 1]])
+
+
+# -- approximation error -----------------------------------------------------------------------
+
+
+def test_approximation_error_of_a_square_has_a_closed_form():
+    side, d = 10.0, 1.0
+    rows = approximation_error(fuzzify(square(side), tme=d), [0.0, 0.5, 1.0])
+    r = rows[0]
+    s = math.sqrt(2)
+    # inner: the sweep keeps a (side − √2 d) square where the exact cut keeps (side − 2d)
+    assert r.inner_error == pytest.approx((side - s * d) ** 2 - (side - 2 * d) ** 2)
+    # outer: sweep square (side + √2 d) inside the rounded square side² + 4 side d + π d²
+    assert r.outer_error == pytest.approx((4 - 2 * s) * side * d + (math.pi - 2) * d * d, rel=1e-3)
+    assert r.band_area == pytest.approx(4 * side * d + math.pi * d * d + 4 * side * d - 4 * d * d, rel=1e-3)
+    assert rows[1].inner_error == pytest.approx((side - s * 0.5) ** 2 - (side - 1) ** 2)
+    assert rows[2].inner_error == rows[2].outer_error == 0 and math.isnan(rows[2].relative)
+
+
+def test_memory_table_5_3_from_the_thesis_figures():
+    rows = memory_table(77, 77, 1050.0, [0.3, 0.2, 0.1])
+    assert [(r.numbers, r.bytes) for r in rows] == [(1232, 4928), (11667, 46668), (26250, 105000), (105000, 420000)]
+    assert [round(r.bytes / rows[0].bytes) for r in rows[1:]] == [9, 21, 85]  # "9, 21, and 85 times"
+
+
+def test_memory_of_a_map():
+    fz = fuzzify(square(10, [[(2, 2), (2, 3), (3, 3), (3, 2)]]), tme=0.2)
+    rows = fz.memory([1.0])
+    assert rows[0].numbers == 16 * 8 and rows[0].bytes == 4 * 16 * 8
+    assert rows[1].bytes == 8 * 8 + 4 * 2 + 1 + (1 + 4)  # compact: xy, ring sizes, kinds, Table 4.2
+    assert rows[2].numbers == 99  # area 99 at 1×1
+    assert rows[3].numbers == 100  # bounding box 10×10
+
+
+# -- files -------------------------------------------------------------------------------------
+
+
+def test_save_and_load_round_trip(tmp_path):
+    ring = Ring([(0, 0), (10, 0), (10, 10), (0, 10)], fm=[1, 2, 2, 1])
+    fz = fuzzify(BRepMap((Region(ring),)), {1: Triangular(1.0), 2: A4(0.5)})
+    fz.save(tmp_path / "m.json", metadata={"note": "x"})
+    back = FuzzyBRepMap.load(tmp_path / "m.json")
+    assert back.crisp.equals_exactly(fz.crisp)
+    assert back.table.to_dicts() == fz.table.to_dicts()
+    for k in fz.vertex_table(0):
+        np.testing.assert_array_equal(back.vertex_table(0)[k], fz.vertex_table(0)[k])
+
+
+def test_loading_a_crisp_map_needs_a_tme(tmp_path):
+    write_map(tmp_path / "crisp.json", MapFile(square()))
+    with pytest.raises(MapFileError, match="no membership-function table"):
+        FuzzyBRepMap.load(tmp_path / "crisp.json")
+    assert FuzzyBRepMap.load(tmp_path / "crisp.json", tme=0.3).table[1] == Triangular(0.3)
+    write_map(tmp_path / "bad.json", MapFile(square(), [{"index": 1, "type": "A2", "p": 1, "tme": 1}]))
+    with pytest.raises(MapFileError, match="bad.json: membership function 1: A2.*criterion 1"):
+        FuzzyBRepMap.load(tmp_path / "bad.json")
+
+
+def test_table_from_mapping():
+    fz = fuzzify(square(), MembershipTable({1: Triangular(0.1)}))
+    assert fz.table.indices == [1]

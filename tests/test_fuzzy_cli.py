@@ -1,0 +1,231 @@
+"""The fuzzy B-rep commands and GeoJSON input: fuzzify, tables, alpha-cut, membership, memory."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+import shapely
+
+from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES
+from fuzzybrep.cli import main
+from fuzzybrep.errors import GeometryError, MapFileError
+from fuzzybrep.fuzzy import FuzzyBRepMap
+from fuzzybrep.geojson import crisp_from_geojson, read_geojson, read_points
+
+
+def polygon(shell, *holes):
+    return {"type": "Polygon", "coordinates": [[list(p) for p in (*r, r[0])] for r in (shell, *holes)]}
+
+
+SQUARE = [(0, 0), (10, 0), (10, 10), (0, 10)]
+HOLE = [(4, 4), (4, 6), (6, 6), (6, 4)]
+
+
+@pytest.fixture
+def plan(tmp_path):
+    """A floor plan in mm: the thesis's Figure 4.10 polygon."""
+    p = tmp_path / "plan.geojson"
+    p.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"name": "E1"}, "geometry": polygon(TABLE_4_1_VERTICES.tolist())}]}))
+    return p
+
+
+def run(*argv) -> int:
+    return main([str(a) for a in argv])
+
+
+def test_fuzzify_then_tables_reproduce_table_4_1(plan, tmp_path, capsys):
+    out = tmp_path / "map.json"
+    assert run("fuzzify", plan, "--unit", "mm", "--tme", 200, "--out", out) == 0
+    assert "8 vertices" in capsys.readouterr().out
+    assert run("tables", out, "--csv", tmp_path / "t") == 0
+    with open(tmp_path / "t" / "vertices_principal.csv") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["VERTEX", "X", "Y", "XOUT", "YOUT", "XIN", "YIN", "T", "U", "V", "W", "FM"]
+    got = {(float(r[1]), float(r[2])): [float(c) for c in r[3:11]] for r in rows[1:]}
+    for v, expected in zip(TABLE_4_1_VERTICES, TABLE_4_1):  # the map file orders the ring CCW
+        np.testing.assert_allclose(got[tuple(v)], expected, atol=0.05)
+    assert all(r[11] == "1" for r in rows[1:])
+    with open(tmp_path / "t" / "edges_principal.csv") as fh:
+        edges = list(csv.reader(fh))
+    assert edges[0][:9] == ["EDGE", "VSTART", "VEND", "EDGE_OUT", "VOUT_START", "VOUT_END", "EDGE_IN", "VIN_START",
+                            "VIN_END"]
+    assert edges[1][:9] == ["E1", "V1", "V2", "EO1", "VO1", "VO2", "EI1", "VI1", "VI2"]
+    with open(tmp_path / "t" / "membership_functions.csv") as fh:
+        mf = list(csv.reader(fh))
+    assert mf[1][:2] == ["1", "triangular"] and "TME = 200" in mf[1][2]
+
+
+def test_tables_with_holes_and_null_vertices(tmp_path, capsys):
+    chamfered = [(0, 0), (10, 0), (10, 9.5), (9.5, 10), (0, 10)]
+    src = tmp_path / "c.geojson"
+    src.write_text(json.dumps(polygon(chamfered, HOLE)))
+    out = tmp_path / "m.json"
+    assert run("fuzzify", src, "--tme", 2.0, "--out", out) == 0
+    assert run("tables", out, "--csv", tmp_path / "t") == 0
+    assert sorted(p.name for p in (tmp_path / "t").iterdir()) == [
+        "edges_hole_1.csv", "edges_principal.csv", "membership_functions.csv", "vertices_hole_1.csv",
+        "vertices_principal.csv"]
+    rows = list(csv.reader(open(tmp_path / "t" / "vertices_principal.csv")))
+    nulls = [r[0] for r in rows[1:] if r[5] == "" and r[6] == ""]
+    assert len(nulls) == 2 and all(r[7] != "" for r in rows[1:])  # VIN NULL, line kept
+    capsys.readouterr()
+    assert run("tables", out) == 0
+    text = capsys.readouterr().out
+    assert "Fuzzy vertex table (Table 4.1): principal" in text and "hole 1" in text and "NULL" in text
+
+
+def test_alpha_cut_writes_roles_and_alpha(plan, tmp_path):
+    m = tmp_path / "map.json"
+    run("fuzzify", plan, "--unit", "mm", "--tme", 200, "--out", m)
+    cut = tmp_path / "cut.geojson"
+    assert run("alpha-cut", m, "--alpha", 0, "--alpha", 0.5, "--alpha", 1, "--out", cut) == 0
+    fc = json.loads(cut.read_text())
+    assert fc["type"] == "FeatureCollection"
+    props = [(f["properties"]["role"], f["properties"]["alpha"]) for f in fc["features"]]
+    assert props == [("crisp", 1.0), ("inner", 0.0), ("outer", 0.0), ("inner", 0.5), ("outer", 0.5),
+                     ("inner", 1.0), ("outer", 1.0)]
+    geoms = [shapely.from_geojson(json.dumps(f["geometry"])) for f in fc["features"]]
+    crisp = geoms[0]
+    assert all(g.is_valid for g in geoms)
+    assert geoms[1].within(geoms[3]) and geoms[4].within(geoms[2])  # nesting
+    assert geoms[5].equals(crisp) and geoms[6].equals(crisp)
+    assert run("alpha-cut", m, "--alpha", 0.2, "--method", "exact", "--out", cut) == 0
+    assert json.loads(cut.read_text())["features"][1]["properties"]["method"] == "exact"
+
+
+def test_alpha_cut_refuses_bad_alpha(plan, tmp_path, capsys):
+    m = tmp_path / "map.json"
+    run("fuzzify", plan, "--unit", "mm", "--tme", 200, "--out", m)
+    with pytest.raises(SystemExit) as e:
+        run("alpha-cut", m, "--alpha", 1.5, "--out", tmp_path / "c.geojson")
+    assert e.value.code == 2 and "[0, 1]" in capsys.readouterr().err
+
+
+def test_membership_command(tmp_path, capsys):
+    src = tmp_path / "sq.geojson"
+    src.write_text(json.dumps(polygon(SQUARE)))
+    m = tmp_path / "m.json"
+    run("fuzzify", src, "--tme", 1, "--out", m)
+    pts = tmp_path / "pts.csv"
+    pts.write_text("x,y\n5,0\n5,0.5\n5,5\n# comment\n5,-3\n")
+    capsys.readouterr()
+    assert run("membership", m, "--points", pts, "--method", "both") == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[0] == "x,y,mu_sweep,mu_exact"
+    mu = np.array([[float(c) for c in ln.split(",")[2:]] for ln in lines[1:]])
+    np.testing.assert_allclose(mu[:, 1], [1, 0.5, 0, 0])
+    np.testing.assert_allclose(mu[:, 0], [1, 1 - 0.5 * 2 ** 0.5, 0, 0], atol=1e-6)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("1,2\n3,oops\n")
+    assert run("membership", m, "--points", bad) == 2
+    assert "bad.csv: line 2: x,y must be numbers" in capsys.readouterr().err
+
+
+def test_memory_command(tmp_path, capsys):
+    src = tmp_path / "sq.geojson"
+    src.write_text(json.dumps(polygon(SQUARE, HOLE)))
+    m = tmp_path / "m.json"
+    run("fuzzify", src, "--tme", 0.2, "--out", m)
+    capsys.readouterr()
+    assert run("memory", m, "--cell", 0.3, "--cell", 0.1) == 0
+    text = capsys.readouterr().out
+    assert "| fuzzy B-rep, thesis accounting (10 per vertex + 6 per edge) | 128 | 512 |" in text
+    assert "over the map's area (96 m²) | 1067 | 4268 |" in text  # ceil(96 / 0.09)
+    assert "0.1×0.1 m over the map's area (96 m²) | 9600 | 38400 |" in text
+
+
+def test_fuzzify_needs_a_tme_and_checks_the_function(plan, tmp_path, capsys):
+    out = tmp_path / "m.json"
+    assert run("fuzzify", plan, "--out", out) == 2
+    assert "give --tme" in capsys.readouterr().err
+    assert run("fuzzify", plan, "--tme", 200, "--mf", "A2:p=0.001", "--out", out) == 2
+    assert "criterion 1" in capsys.readouterr().err
+    assert run("fuzzify", plan, "--laser-error", 15, "--odometry-error", 184.13, "--unit", "mm", "--out", out) == 0
+    assert FuzzyBRepMap.load(out).table[1].tme_in == pytest.approx(199.13)
+    assert run("fuzzify", plan, "--tme", 200, "--mf", "A2:p=0.001,truncate", "--frontier-mf", "tri:tme=400",
+               "--out", out) == 0
+    assert FuzzyBRepMap.load(out).table.indices == [1, 2]
+
+
+def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
+    from fuzzybrep.brep import BRepMap
+    from fuzzybrep.mapfile import MapFile, write_map
+    m = tmp_path / "crisp.json"
+    write_map(m, MapFile(BRepMap.from_shapely(shapely.box(0, 0, 5, 5))))
+    assert run("memory", m) == 2
+    assert "no membership-function table" in capsys.readouterr().err
+    assert run("memory", m, "--tme", 0.2) == 0
+    out = tmp_path / "fz.json"
+    assert run("fuzzify", m, "--tme", 0.3, "--out", out) == 0  # a crisp map file is a valid input
+    assert FuzzyBRepMap.load(out).table[1].tme_in == 0.3
+
+
+# -- GeoJSON input -----------------------------------------------------------------------------
+
+
+def test_geojson_kinds():
+    g = crisp_from_geojson(polygon(SQUARE, HOLE))
+    assert len(g.holes) == 1 and g.principal.signed_area > 0 and g.holes[0].signed_area < 0
+    mp = {"type": "MultiPolygon", "coordinates": [polygon(SQUARE)["coordinates"],
+                                                   polygon([(20, 0), (22, 0), (22, 2)])["coordinates"]]}
+    g = crisp_from_geojson(mp, unit="mm")
+    assert len(g.regions) == 2 and g.unit == "mm" and g.regions[0].area == 100
+    fc = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "geometry": polygon(SQUARE)},
+        {"type": "Feature", "geometry": polygon([(5, 5), (15, 5), (15, 8), (5, 8)])},  # overlaps: united
+        {"type": "Feature", "geometry": None}]}
+    g = crisp_from_geojson(fc)
+    assert len(g.regions) == 1 and g.area == pytest.approx(100 + 15)
+    unclosed = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1, 5.0]]]}  # 3-D, unclosed: fine
+    assert len(crisp_from_geojson(unclosed).principal) == 3
+
+
+@pytest.mark.parametrize("obj, error, match", [
+    ({"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [0, 4], [6, 4], [0, 0]]]}, GeometryError,
+     r"polygon outer ring, vertex \d: self-intersecting"),
+    ({"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": polygon(SQUARE)},
+                                                {"type": "Feature", "geometry": polygon(SQUARE, [(4, 4), (14, 4), (4, 6)])}]},
+     GeometryError, r"feature 2 polygon (outer ring|hole 1), vertex \d+: invalid polygon"),
+    ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], ["a", 1], [0, 0]]]}, GeometryError,
+     r"polygon outer ring, vertex 3: position \['a', 1\] is not \[x, y\] numbers"),
+    ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 0]]]}, GeometryError, "at least 3 vertices"),
+    ({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}, ValueError, "LineString has no area"),
+    ({"type": "Circle"}, ValueError, "unknown GeoJSON type 'Circle'"),
+    ({"type": "FeatureCollection", "features": []}, ValueError, "no Polygon"),
+])
+def test_invalid_geojson_is_refused_naming_where(obj, error, match):
+    with pytest.raises(error, match=match):
+        crisp_from_geojson(obj)
+
+
+def test_read_geojson_file_errors(tmp_path):
+    p = tmp_path / "x.geojson"
+    p.write_text("{not json")
+    with pytest.raises(MapFileError, match="x.geojson: not valid JSON"):
+        read_geojson(p)
+    p.write_text(json.dumps({"type": "Point", "coordinates": [0, 0]}))
+    with pytest.raises(MapFileError, match="x.geojson: a Point has no area"):
+        read_geojson(p)
+    with pytest.raises(MapFileError, match="cannot read"):
+        read_geojson(tmp_path / "missing.geojson")
+
+
+def test_fuzzify_cli_names_the_bad_vertex(tmp_path, capsys):
+    p = tmp_path / "bow.geojson"
+    p.write_text(json.dumps({"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [0, 4], [6, 4], [0, 0]]]}))
+    assert run("fuzzify", p, "--tme", 0.1, "--out", tmp_path / "m.json") == 2
+    err = capsys.readouterr().err
+    assert "fuzzybrep fuzzify: error: polygon outer ring, vertex" in err and "self-intersecting" in err
+
+
+def test_read_points(tmp_path):
+    p = tmp_path / "p.csv"
+    p.write_text("x,y,label\n1,2,a\n\n3.5,-4,b\n")
+    assert read_points(p).tolist() == [[1, 2], [3.5, -4]]
+    p.write_text("1\n")
+    with pytest.raises(MapFileError, match="line 1: expected x,y"):
+        read_points(p)
