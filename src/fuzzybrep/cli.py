@@ -16,6 +16,7 @@ from .errors import FuzzyBrepError
 COMMANDS = [
     "build",
     "export",
+    "grid",
     "simulate",
     "umbmark",
 ]
