@@ -21,6 +21,7 @@ COMMANDS = [
     "alpha_cut",
     "membership",
     "memory",
+    "grid",
     "simulate",
     "umbmark",
 ]

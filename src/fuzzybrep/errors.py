@@ -83,3 +83,22 @@ class WorldError(FuzzyBrepError, ValueError):
         self.reason = message
         where = [w for w in (self.path, None if feature is None else f"feature {feature}") if w]
         super().__init__(f"{', '.join(where)}: {message}" if where else message)
+
+
+class BagMessageError(ScanFormatError):
+    """A message in a ROS bag is unusable: names the bag, the topic, the message's index on that
+    topic (from 0) and the field."""
+
+    def __init__(self, path: str | os.PathLike | None, topic: str | None, index: int | None, message: str,
+                 field: str | None = None):
+        super().__init__(path, None, message, field)
+        self.topic = topic
+        self.index = index
+        where = [w for w in (self.path or "<bag>", None if topic is None else f"topic {topic}",
+                             None if index is None else f"message {index}",
+                             None if field is None else f"field {field}") if w]
+        self.args = (f"{', '.join(where)}: {message}",)
+
+
+class BagValueError(BagMessageError, ScanValueError):
+    """A message in a ROS bag holds an impossible value (a negative range)."""

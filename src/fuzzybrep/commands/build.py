@@ -32,6 +32,9 @@ def add_arguments(p) -> None:
     p.add_argument("--min-hole-area", type=float, help="prune holes smaller than this (map unit², default from the config)")
     p.add_argument("--simplify", type=float, help="vertex reduction tolerance (map unit, default from the config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    from ._bagopts import add_bag_arguments
+
+    add_bag_arguments(p)
 
 
 def config_from_args(args):
@@ -66,7 +69,9 @@ def run(args) -> int:
     cfg = config_from_args(args)
     t0 = time.perf_counter()
     report = ReadReport()
-    kw = {"skip_bad": args.skip_bad}
+    from ._bagopts import bag_kwargs
+
+    kw = {"skip_bad": args.skip_bad, **bag_kwargs(args, args.log, args.format)}
     if args.max_range is not None:
         kw["max_range"] = args.max_range
     scans = read_scans(args.log, fmt=args.format, report=report, **kw)

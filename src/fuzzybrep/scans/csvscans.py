@@ -173,9 +173,11 @@ def write_csv(path: str | os.PathLike, scans: list[Scan]) -> int:
     if len(mr) > 1:
         raise ValueError("all scans of one CSV file must share max_range")
     if mr and np.isfinite(next(iter(mr))):
-        out.write(f"# max_range: {next(iter(mr))!r}\n")
+        out.write(f"# max_range: {float(next(iter(mr)))!r}\n")
     out.write(",".join(COLUMNS) + "\n")
     for k, s in enumerate(scans):
-        head = f"{k},{s.timestamp!r},{s.pose[0]!r},{s.pose[1]!r},{s.pose[2]!r},"
+        # float(): under NumPy 2 the repr of a NumPy scalar is "np.float64(...)", not a number
+        x, y, theta = s.pose.tolist()
+        head = f"{k},{float(s.timestamp)!r},{x!r},{y!r},{theta!r},"
         out.writelines(f"{head}{b!r},{r!r}\n" for b, r in zip(s.bearings.tolist(), s.ranges.tolist()))
     return write_atomic(path, out.getvalue().encode())

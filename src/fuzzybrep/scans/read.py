@@ -18,6 +18,7 @@ class ReadReport:
     errors: list[ScanFormatError] = field(default_factory=list)
     max_range: float | None = None
     consolidated: int = 0  # pairs of 180° scans merged into 360° scans
+    notes: list[str] = field(default_factory=list)  # choices a reader made for the user (topics, pose source)
 
     def skip(self, err: ScanFormatError) -> None:
         self.skipped += 1

@@ -1,0 +1,337 @@
+"""Occupancy-grid mapping: the baseline the thesis argues against (thesis 2.2: Elfes; Thrun).
+
+The plane is cut into square cells; each cell holds the log-odds ``l = log(p / (1 - p))`` that it
+is occupied, 0 (p = 0.5) before anything is seen. Every beam applies the inverse sensor model:
+
+* every cell the beam passes through before its return gets ``l_free`` (the beam went through);
+* the cell holding the return gets ``l_occ`` (something reflected it);
+* a beam whose return lies beyond ``max_usable`` marks free space up to ``max_usable`` and no hit
+  (the thesis does not trust the space between 1°-apart beams that far out);
+* a beam with no return (range at or above the scan's ``max_range``) marks nothing: it is evidence
+  of nothing. ``no_return_free`` > 0 claims free space that far along it instead.
+
+Updates are independent, so the map is the sum of all of them (Bayes' rule in log-odds form,
+Thrun, Burgard and Fox 2005, 9.2), clamped to ``clamp`` so that no cell becomes so certain that
+it can never change. The sum is clamped once at the end (batch mapping of a static world): this is
+what sequential clamping gives unless a cell hits a bound and later turns the other way.
+
+The cells a beam passes through are found exactly (Amanatides and Woo's traversal, 1987) for all
+beams at once: a beam from cell (ix0, iy0) to cell (ix1, iy1) crosses |ix1 - ix0| vertical and
+|iy1 - iy0| horizontal cell boundaries, and each crossing enters exactly one new cell, whose other
+coordinate follows from where along the beam the crossing lies. So no (beam, cell) pair is counted
+twice and no sorting is needed; a ``np.bincount`` accumulates the cells of millions of beams.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .scans.scan import Scan
+
+
+def logit(p: float) -> float:
+    """Log-odds of a probability."""
+    return math.log(p / (1.0 - p))
+
+
+#: OctoMap's published sensor model (Hornung et al. 2013): hit 0.7, miss 0.4, clamped to 0.12..0.97
+L_OCC = logit(0.7)
+L_FREE = logit(0.4)
+CLAMP = (logit(0.12), logit(0.97))
+#: map_server's thresholds as map_saver writes them: p > 0.65 is occupied, p < 0.196 is free
+OCCUPIED_THRESH = 0.65
+FREE_THRESH = 0.196
+
+#: cell states in the nav_msgs/OccupancyGrid convention (what ``trinary`` returns)
+UNKNOWN, FREE, OCCUPIED = -1, 0, 100
+
+_CHUNK = 1 << 22  # cell visits per batch (32 MB of indices): amortises the per-step NumPy calls
+
+
+@dataclass(frozen=True, eq=False)
+class OccupancyGrid:
+    """Log-odds occupancy of square cells.
+
+    logodds  (ny, nx) float32; row iy covers y in [origin_y + iy·res, origin_y + (iy+1)·res), so row 0
+             is the BOTTOM of the map (a ROS image is the other way up: see ``rosmap``).
+    origin   (2,) world x, y of the lower-left corner of cell (0, 0).
+    resolution  cell side (map unit).
+    free_thresh, occupied_thresh  probabilities below / above which a cell is free / occupied.
+    """
+
+    logodds: np.ndarray
+    origin: np.ndarray
+    resolution: float
+    free_thresh: float = FREE_THRESH
+    occupied_thresh: float = OCCUPIED_THRESH
+
+    def __post_init__(self) -> None:
+        lo = np.asarray(self.logodds, dtype=np.float32)
+        if lo.ndim != 2:
+            raise ValueError(f"logodds must be a 2-D array, got shape {lo.shape}")
+        object.__setattr__(self, "logodds", lo)
+        object.__setattr__(self, "origin", np.asarray(self.origin, dtype=np.float64).reshape(2))
+        if not self.resolution > 0:
+            raise ValueError(f"resolution must be positive, got {self.resolution!r}")
+        if not 0 < self.free_thresh < self.occupied_thresh < 1:
+            raise ValueError(f"need 0 < free_thresh ({self.free_thresh}) < occupied_thresh ({self.occupied_thresh}) < 1")
+
+    # ------------------------------------------------------------------ size
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(ny, nx)."""
+        return self.logodds.shape  # type: ignore[return-value]
+
+    @property
+    def cells(self) -> int:
+        return int(self.logodds.size)
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the whole grid, for plotting."""
+        ny, nx = self.shape
+        x0, y0 = self.origin
+        return x0, x0 + nx * self.resolution, y0, y0 + ny * self.resolution
+
+    def nbytes(self, bytes_per_cell: int = 4) -> int:
+        """Memory of the map at ``bytes_per_cell`` (the thesis counts 4 per cell; a PGM stores 1)."""
+        return self.cells * int(bytes_per_cell)
+
+    # ------------------------------------------------------------------ states
+    def probability(self) -> np.ndarray:
+        """(ny, nx) probability that each cell is occupied."""
+        return 1.0 / (1.0 + np.exp(-self.logodds.astype(np.float64)))
+
+    def free(self) -> np.ndarray:
+        """(ny, nx) bool: p < free_thresh."""
+        return self.logodds < logit(self.free_thresh)
+
+    def occupied(self) -> np.ndarray:
+        """(ny, nx) bool: p > occupied_thresh."""
+        return self.logodds > logit(self.occupied_thresh)
+
+    def unknown(self) -> np.ndarray:
+        """(ny, nx) bool: neither free nor occupied (never seen, or seen both ways)."""
+        return ~(self.free() | self.occupied())
+
+    def trinary(self) -> np.ndarray:
+        """(ny, nx) int8: OCCUPIED (100), FREE (0) or UNKNOWN (-1), as nav_msgs/OccupancyGrid."""
+        out = np.full(self.shape, UNKNOWN, np.int8)
+        out[self.free()] = FREE
+        out[self.occupied()] = OCCUPIED
+        return out
+
+    def free_area(self) -> float:
+        """Area of the free cells (map unit²)."""
+        return float(np.count_nonzero(self.free())) * self.resolution**2
+
+    # ------------------------------------------------------------------ queries at world points
+    def cell_index(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(iy, ix, inside) of world points; iy, ix are clipped into the grid where not inside."""
+        ny, nx = self.shape
+        fx = np.floor((np.asarray(x, np.float64) - self.origin[0]) / self.resolution)
+        fy = np.floor((np.asarray(y, np.float64) - self.origin[1]) / self.resolution)
+        inside = (fx >= 0) & (fx < nx) & (fy >= 0) & (fy < ny)
+        return np.clip(fy, 0, ny - 1).astype(np.intp), np.clip(fx, 0, nx - 1).astype(np.intp), inside
+
+    def probability_at(self, x, y) -> np.ndarray:
+        """Occupancy probability at world points; 0.5 (nothing known) outside the grid."""
+        iy, ix, inside = self.cell_index(x, y)
+        lo = np.where(inside, self.logodds[iy, ix], 0.0)
+        return 1.0 / (1.0 + np.exp(-lo))
+
+    def state_at(self, x, y) -> np.ndarray:
+        """OCCUPIED, FREE or UNKNOWN at world points (UNKNOWN outside the grid)."""
+        iy, ix, inside = self.cell_index(x, y)
+        return np.where(inside, self.trinary()[iy, ix], UNKNOWN).astype(np.int8)
+
+
+# ---------------------------------------------------------------------- building
+
+
+@dataclass(frozen=True)
+class Beams:
+    """Every beam of every scan as a segment to trace: origin, direction, length, hit at the end."""
+
+    ox: np.ndarray
+    oy: np.ndarray
+    cos: np.ndarray
+    sin: np.ndarray
+    length: np.ndarray
+    hit: np.ndarray  # bool: the cell at the end gets l_occ
+
+    @property
+    def ex(self) -> np.ndarray:
+        return self.ox + self.length * self.cos
+
+    @property
+    def ey(self) -> np.ndarray:
+        return self.oy + self.length * self.sin
+
+
+def beams_of(scans: Sequence[Scan], max_usable: float = 8.0, no_return_free: float = 0.0) -> Beams:
+    """The inverse sensor model's segments (see module doc); beams that mark nothing are dropped."""
+    n = np.fromiter((len(s.ranges) for s in scans), np.int64, len(scans))
+    poses = np.array([s.pose for s in scans]).reshape(-1, 3)
+    r = np.concatenate([s.ranges for s in scans]) if len(scans) else np.zeros(0)
+    ret = np.concatenate([s.returns for s in scans]) if len(scans) else np.zeros(0, bool)
+    ang = np.repeat(poses[:, 2], n) + (np.concatenate([s.bearings for s in scans]) if len(scans) else 0.0)
+    hit = ret & (r <= max_usable)
+    length = np.where(ret, np.minimum(r, max_usable), min(no_return_free, max_usable))
+    keep = hit | (length > 0)
+    return Beams(np.repeat(poses[:, 0], n)[keep], np.repeat(poses[:, 1], n)[keep], np.cos(ang[keep]),
+                 np.sin(ang[keep]), length[keep], hit[keep])
+
+
+def occupancy_grid(
+    scans: Sequence[Scan],
+    resolution: float = 0.05,
+    l_occ: float = L_OCC,
+    l_free: float = L_FREE,
+    clamp: tuple[float, float] = CLAMP,
+    max_usable: float = 8.0,
+    no_return_free: float = 0.0,
+    free_thresh: float = FREE_THRESH,
+    occupied_thresh: float = OCCUPIED_THRESH,
+    workers: int | None = None,
+) -> OccupancyGrid:
+    """The log-odds occupancy grid of scans at known poses (inverse sensor model: module doc).
+
+    The grid just covers every traced beam, with one spare cell on each side; its origin is a
+    multiple of ``resolution``, so grids of different logs line up.
+    """
+    if not resolution > 0:
+        raise ValueError(f"resolution must be positive, got {resolution!r}")
+    if not max_usable > 0:
+        raise ValueError(f"max_usable must be positive, got {max_usable!r}")
+    if not clamp[0] <= 0 <= clamp[1]:
+        raise ValueError(f"clamp {clamp} must contain 0 (the prior)")
+    if not (l_occ > 0 and l_free < 0):
+        raise ValueError(f"need l_occ > 0 and l_free < 0, got {l_occ} and {l_free}")
+    b = beams_of(scans, max_usable, no_return_free)
+    if len(b.length) == 0:
+        raise ValueError("no beam marks anything: every beam has no return (try no_return_free > 0)")
+    ex, ey = b.ex, b.ey
+    # cell k spans [k, k+1) * resolution in world coordinates: origin on the lattice
+    i0 = np.floor(min(b.ox.min(), ex.min()) / resolution) - 1
+    j0 = np.floor(min(b.oy.min(), ey.min()) / resolution) - 1
+    nx = int(np.floor(max(b.ox.max(), ex.max()) / resolution) - i0) + 2
+    ny = int(np.floor(max(b.oy.max(), ey.max()) / resolution) - j0) + 2
+    ou, ov = b.ox / resolution - i0, b.oy / resolution - j0
+    eu, ev = ex / resolution - i0, ey / resolution - j0
+
+    passes = traverse_counts(ou, ov, eu, ev, b.cos, b.sin, nx, ny, workers)
+    end = np.floor(ev[b.hit]).astype(np.int64) * nx + np.floor(eu[b.hit]).astype(np.int64)
+    hits = np.bincount(end, minlength=nx * ny)
+    # every hit beam passed through its own end cell once: that pass is the hit, not free space
+    free = np.maximum(passes - hits, 0)
+    lo = (hits * l_occ + free * l_free).clip(clamp[0], clamp[1]).astype(np.float32).reshape(ny, nx)
+    return OccupancyGrid(lo, np.array([i0 * resolution, j0 * resolution]), float(resolution), free_thresh,
+                         occupied_thresh)
+
+
+def traverse_counts(ou, ov, eu, ev, du, dv, nx: int, ny: int, workers: int | None = None) -> np.ndarray:
+    """(nx*ny,) how many segments pass through each cell, start and end cells included.
+
+    Segments are given in cell units (cell (i, j) spans [i, i+1) x [j, j+1)): start (ou, ov), end
+    (eu, ev), unit direction (du, dv). Every segment lies inside the grid.
+    """
+    ix0, iy0 = np.floor(ou).astype(np.int64), np.floor(ov).astype(np.int64)
+    ix1, iy1 = np.floor(eu).astype(np.int64), np.floor(ev).astype(np.int64)
+    per = np.abs(ix1 - ix0) + np.abs(iy1 - iy0) + 1
+    cum = np.cumsum(per)
+    cuts = np.searchsorted(cum, np.arange(_CHUNK, cum[-1], _CHUNK), side="right") if len(cum) else []
+    bounds = np.unique(np.r_[0, cuts, len(per)])
+    seg = (ou, ov, du, dv, ix0, iy0, ix1, iy1)
+
+    def count(k: int) -> np.ndarray:
+        lo, hi = bounds[k], bounds[k + 1]
+        return np.bincount(segment_cells(*(a[lo:hi] for a in seg), nx), minlength=nx * ny)
+
+    jobs = range(len(bounds) - 1)
+    workers = workers or min(os.cpu_count() or 1, 8)
+    if workers < 2 or len(jobs) < 2:
+        return sum((count(k) for k in jobs), np.zeros(nx * ny, np.int64))
+    # the elementwise NumPy work releases the GIL, so threads share the cores without copying
+    with ThreadPoolExecutor(workers) as ex:
+        total = np.zeros(nx * ny, np.int64)
+        for c in ex.map(count, jobs):
+            total += c
+        return total
+
+
+def segment_cells(ou, ov, du, dv, ix0, iy0, ix1, iy1, nx: int) -> np.ndarray:
+    """Flat index of every cell each segment passes through, each (segment, cell) pair once.
+
+    The start cell, then one cell per vertical boundary crossed (its row from where the crossing
+    lies), then one per horizontal boundary crossed (its column likewise). Where a segment passes
+    exactly through a cell corner it is taken to cross the horizontal boundary first, so the
+    corner gives two distinct cells, not one twice.
+    """
+    nv, nh = np.abs(ix1 - ix0), np.abs(iy1 - iy0)
+    out = np.empty(len(ou) + int(nv.sum()) + int(nh.sum()), np.int64)
+    out[: len(ou)] = iy0 * nx + ix0
+    pos = len(ou)
+    # vertical boundaries: the m-th (m = 1, 2, ...) enters column ix0 + m·sx at the line x = that
+    # column (moving right) or that column + 1 (moving left); its row is where the segment is then.
+    # Exactly on a horizontal line the horizontal crossing came first: the row after it.
+    pos = _crossings(out, pos, nv, ou, ov, du, dv, ix0, iy0, iy1, after=True, stride=(1, nx))
+    # horizontal boundaries likewise with x and y swapped; exactly on a vertical line the vertical
+    # crossing has not happened yet: the column before it
+    pos = _crossings(out, pos, nh, ov, ou, dv, du, iy0, ix0, ix1, after=False, stride=(nx, 1))
+    assert pos == len(out)
+    return out
+
+
+def _crossings(out, pos, n, ou, ov, du, dv, i0, j0, j1, after: bool, stride) -> int:
+    """Write the cells entered at each of the n crossings of lines u = integer into out[pos:].
+
+    In the frame of this function a segment steps along u (column i) and drifts along v (row j);
+    ``stride`` gives the flat-index step of a column and of a row. Loops over the crossing number
+    m, never over segments: segments are sorted by crossings so that the ones still crossing at
+    step m are a prefix, and every step works on contiguous slices.
+    """
+    order = np.argsort(-n, kind="stable")
+    n = n[order]
+    if len(n) == 0 or n[0] == 0:
+        return pos
+    ou, ov, du, dv, i0, j0, j1 = (a[order] for a in (ou, ov, du, dv, i0, j0, j1))
+    si = np.where(du >= 0, 1, -1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # du = 0 only where n = 0
+        t1 = (i0 + (si > 0) - ou) / du  # where along the segment the first crossing lies
+        v1 = ov + t1 * dv
+        dvdu = np.abs(dv / du)  # drift in v per column
+    # a crossing exactly on a line v = integer must take the row after it (``after``) or before
+    # it: ceil(v) - 1 = -floor(-v) - 1 where floor() alone would go the wrong way, so flip there
+    flip = (dv < 0) if after else (dv > 0)
+    sg = np.where(flip, -1.0, 1.0)
+    off = np.where(flip, -1.0, 0.0)
+    w1 = sg * v1
+    ws = sg * np.sign(dv) * dvdu
+    jlo, jhi = np.minimum(j0, j1), np.maximum(j0, j1)
+    # bounds of floor(w) that keep the row within the segment's own rows despite rounding
+    wlo = np.where(flip, -jhi - 1, jlo).astype(np.float64)
+    whi = np.where(flip, -jlo - 1, jhi).astype(np.float64)
+    col_step = (si * stride[0]).astype(np.float64)
+    row_mul = sg * stride[1]
+    base = (i0 + si) * stride[0] + off * stride[1]  # cell at m = 1 apart from the row term
+    active = np.searchsorted(-n, -np.arange(1, n[0] + 1), side="right")  # segments crossing >= m
+    buf = np.empty(active[0])
+    for k, c in enumerate(active):  # k = m - 1
+        w = np.multiply(ws[:c], k, out=buf[:c])
+        w += w1[:c]
+        np.floor(w, out=w)
+        np.fmax(w, wlo[:c], out=w)  # fmax, not maximum: a NaN from a degenerate segment becomes a bound
+        np.fmin(w, whi[:c], out=w)
+        w *= row_mul[:c]
+        w += base[:c]
+        w += col_step[:c] * k
+        out[pos : pos + c] = w
+        pos += c
+    return pos

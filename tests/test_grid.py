@@ -1,0 +1,276 @@
+"""The occupancy-grid baseline: inverse sensor model, exact traversal, clamping, ROS map out."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fuzzybrep import cli
+from fuzzybrep.grid import (CLAMP, FREE, L_FREE, L_OCC, OCCUPIED, UNKNOWN, OccupancyGrid, logit, occupancy_grid,
+                            segment_cells)
+from fuzzybrep.rosmap import grid_image, read_ros_map, write_grid
+from fuzzybrep.scans.read import read_scans
+from fuzzybrep.scans.scan import Scan
+from fuzzybrep.simulate import World, cast_rays
+
+from conftest import log_path
+
+RES = 0.05
+NO_CLAMP = (-math.inf, math.inf)
+# walls through cell centres (x = 0.025 + 0.05 k), so no return lands on a cell boundary
+BOX = (-1.975, -0.975, 2.025, 1.025)
+
+
+def box_scans(poses, n=181, fov=2 * math.pi * 359 / 360, max_range=8.0, box=BOX):
+    """Noise-free scans from inside a rectangular room (full turn unless fov says otherwise)."""
+    world = World(shapely.box(*box), shapely.MultiLineString())
+    b = np.linspace(-fov / 2, fov / 2, n)
+    out = []
+    for k, p in enumerate(poses):
+        p = np.asarray(p, float)
+        r, _ = cast_rays(world, np.tile(p[:2], (n, 1)), p[2] + b, max_range)
+        out.append(Scan(np.minimum(r, max_range), b, p, float(k), max_range))
+    return out
+
+
+def walk_cells(ou, ov, eu, ev):
+    """Reference traversal, Amanatides and Woo's loop: the cells from (ou, ov) to (eu, ev) in order."""
+    ix, iy = math.floor(ou), math.floor(ov)
+    ex, ey = math.floor(eu), math.floor(ev)
+    du, dv = eu - ou, ev - ov
+    sx, sy = (1 if du > 0 else -1), (1 if dv > 0 else -1)
+    tx = ((ix + (sx > 0)) - ou) / du if du else math.inf
+    ty = ((iy + (sy > 0)) - ov) / dv if dv else math.inf
+    dx, dy = (abs(1 / du) if du else math.inf), (abs(1 / dv) if dv else math.inf)
+    cells = [(ix, iy)]
+    while (ix, iy) != (ex, ey):
+        if tx < ty:
+            ix, tx = ix + sx, tx + dx
+        else:
+            iy, ty = iy + sy, ty + dy
+        cells.append((ix, iy))
+        assert len(cells) < 100_000
+    return cells
+
+
+def reference_counts(scans, grid: OccupancyGrid, max_usable=8.0, no_return_free=0.0):
+    """(hits, free passes) per cell by a loop over beams: the inverse sensor model read literally."""
+    ny, nx = grid.shape
+    hits, free = np.zeros((ny, nx), int), np.zeros((ny, nx), int)
+    i0, j0 = grid.origin / grid.resolution
+    for s in scans:
+        for r, a, ret in zip(s.ranges, s.world_angles(), s.returns):
+            hit = bool(ret and r <= max_usable)
+            length = min(r, max_usable) if ret else min(no_return_free, max_usable)
+            if not hit and length <= 0:
+                continue
+            ex, ey = s.pose[0] + length * math.cos(a), s.pose[1] + length * math.sin(a)
+            cells = walk_cells(s.pose[0] / grid.resolution - i0, s.pose[1] / grid.resolution - j0,
+                               ex / grid.resolution - i0, ey / grid.resolution - j0)
+            if hit:
+                hits[cells[-1][1], cells[-1][0]] += 1
+                cells = cells[:-1]
+            for ix, iy in cells:
+                free[iy, ix] += 1
+    return hits, free
+
+
+# ------------------------------------------------------------------------- traversal
+
+
+segments = st.tuples(st.floats(20, 80), st.floats(20, 80), st.floats(-math.pi, math.pi), st.floats(0, 15))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(segments, min_size=1, max_size=20))
+def test_traversal_matches_the_reference_walk_and_visits_each_cell_once(segs):
+    ou, ov, a, length = (np.array(c, float) for c in zip(*segs))
+    du, dv = np.cos(a), np.sin(a)
+    eu, ev = ou + length * du, ov + length * dv
+    f = lambda z: np.floor(z).astype(np.int64)  # noqa: E731
+    nx = 200
+    for k in range(len(segs)):
+        one = slice(k, k + 1)
+        got = segment_cells(ou[one], ov[one], du[one], dv[one], f(ou[one]), f(ov[one]), f(eu[one]), f(ev[one]), nx)
+        want = [iy * nx + ix for ix, iy in walk_cells(ou[k], ov[k], eu[k], ev[k])]
+        assert len(set(got.tolist())) == len(got), "a cell counted twice for one segment"
+        assert sorted(got.tolist()) == sorted(want)
+    # all at once gives the same multiset as one at a time
+    allc = segment_cells(ou, ov, du, dv, f(ou), f(ov), f(eu), f(ev), nx)
+    assert sorted(allc.tolist()) == sorted(
+        iy * nx + ix for k in range(len(segs)) for ix, iy in walk_cells(ou[k], ov[k], eu[k], ev[k]))
+
+
+def test_segment_through_cell_corners_gives_a_four_connected_path_without_repeats():
+    # from a cell corner at 45° the segment meets only corners: each is crossed as two steps
+    ou = ov = np.array([10.0])
+    d = np.array([math.sqrt(0.5)])
+    cells = segment_cells(ou, ov, d, d, np.array([10]), np.array([10]), np.array([13]), np.array([13]), 100)
+    xy = sorted((c % 100, c // 100) for c in cells.tolist())
+    assert len(xy) == len(set(xy)) == 7  # (10,10) then 3 diagonal steps of two moves each
+    assert (13, 13) in xy and (10, 10) in xy
+
+
+# ------------------------------------------------------------------------- inverse sensor model
+
+
+def test_cells_match_the_inverse_sensor_model_read_literally():
+    scans = box_scans([(0.1, 0.05, 0.3), (-1.0, 0.4, 2.0), (1.3, -0.5, -1.2)], n=90)
+    g = occupancy_grid(scans, RES, clamp=NO_CLAMP)
+    hits, free = reference_counts(scans, g)
+    assert hits.sum() == sum(int(s.returns.sum()) for s in scans)
+    np.testing.assert_array_equal(g.logodds, (hits * L_OCC + free * L_FREE).astype(np.float32))
+
+
+def test_room_is_free_inside_occupied_on_walls_unknown_outside():
+    poses = [(x, y, h) for x in (-1.2, 0.0, 1.2) for y in (-0.4, 0.4) for h in (0.0, 1.0)]
+    g = occupancy_grid(box_scans(poses), RES)
+    x0, y0, x1, y1 = BOX
+    xs, ys = np.meshgrid(np.arange(x0 + 0.1, x1 - 0.1, RES / 2), np.arange(y0 + 0.1, y1 - 0.1, RES / 2))
+    assert (g.state_at(xs, ys) == FREE).all()
+    # the walls are occupied: never free, and occupied nearly everywhere (a wall cell that rays
+    # graze on their way to a neighbouring wall cell collects free passes as well as hits)
+    t = np.linspace(0, 1, 200)[1:-1]
+    walls = [(x0 + t * (x1 - x0), np.full_like(t, y0)), (x0 + t * (x1 - x0), np.full_like(t, y1)),
+             (np.full_like(t, x0), y0 + t * (y1 - y0)), (np.full_like(t, x1), y0 + t * (y1 - y0))]
+    on_walls = np.concatenate([g.state_at(wx, wy) for wx, wy in walls])
+    assert not (on_walls == FREE).any()
+    assert (on_walls == OCCUPIED).mean() > 0.95
+    # just outside the walls nothing is known; far outside the grid neither
+    assert (g.state_at(np.full_like(t, x1 + 0.06), y0 + t * (y1 - y0)) == UNKNOWN).all()
+    assert g.state_at(100.0, 100.0) == UNKNOWN and g.probability_at(100.0, 100.0) == 0.5
+    # free area is the room less its wall cells, to within one cell's width around
+    inner = (x1 - x0 - RES) * (y1 - y0 - RES)
+    assert g.free_area() == pytest.approx(inner, abs=2 * (x1 - x0 + y1 - y0) * RES)
+
+
+def test_masks_partition_the_grid_and_memory_counts_cells():
+    g = occupancy_grid(box_scans([(0.0, 0.0, 0.0), (0.5, 0.2, 1.0)]), RES)
+    free, occ, unk = g.free(), g.occupied(), g.unknown()
+    assert ((free.astype(int) + occ + unk) == 1).all()
+    p = g.probability()
+    assert (p[free] < g.free_thresh).all() and (p[occ] > g.occupied_thresh).all()
+    assert ((p[unk] >= g.free_thresh) & (p[unk] <= g.occupied_thresh)).all()
+    assert g.free_area() == pytest.approx(free.sum() * RES**2)
+    ny, nx = g.shape
+    assert g.cells == nx * ny and g.nbytes() == 4 * nx * ny and g.nbytes(1) == nx * ny
+    np.testing.assert_array_equal(g.trinary() == FREE, free)
+    # the origin lies on the lattice of cell corners, so grids of different logs line up
+    np.testing.assert_allclose(g.origin / RES, np.round(g.origin / RES), atol=1e-9)
+
+
+def test_log_odds_are_clamped():
+    scans = box_scans([(0.0, 0.0, 0.0)] * 40)
+    g = occupancy_grid(scans, RES)
+    unclamped = occupancy_grid(scans, RES, clamp=NO_CLAMP)
+    assert g.logodds.min() == np.float32(CLAMP[0]) and g.logodds.max() == np.float32(CLAMP[1])
+    assert unclamped.logodds.min() < CLAMP[0] - 5 and unclamped.logodds.max() > CLAMP[1] + 5
+    np.testing.assert_array_equal(g.logodds, unclamped.logodds.clip(*CLAMP))
+    tight = occupancy_grid(scans, RES, clamp=(-1.0, 1.0))
+    assert tight.logodds.min() == -1.0 and tight.logodds.max() == 1.0
+
+
+def test_no_return_beams_mark_nothing_unless_asked():
+    # a 10 m corridor seen with an 8 m laser: the beams along it have no return
+    box = (-1.975, -0.975, 9.025, 1.025)
+    scans = box_scans([(0.0, 0.0, 0.0)], n=361, box=box)
+    along = scans[0].ranges[180]
+    assert along == 8.0 and not scans[0].returns[180]
+    g = occupancy_grid(scans, RES, clamp=NO_CLAMP)
+    # straight ahead at 3 m: only the no-return beam passes there (its neighbours diverge)
+    assert g.probability_at(3.0, 0.0) == 0.5
+    assert g.state_at(7.9, 0.0) == UNKNOWN
+    g2 = occupancy_grid(scans, RES, clamp=NO_CLAMP, no_return_free=5.0)
+    assert g2.logodds[g2.cell_index(3.0, 0.0)[:2]] == np.float32(L_FREE)
+    assert g2.probability_at(6.0, 0.0) == 0.5  # free only as far as claimed
+    # no_return_free is capped at max_usable
+    g3 = occupancy_grid(scans, RES, clamp=NO_CLAMP, no_return_free=50.0, max_usable=4.0)
+    assert g3.probability_at(3.9, 0.0) < 0.5 and g3.probability_at(4.1, 0.0) == 0.5
+
+
+def test_returns_beyond_max_usable_mark_free_space_up_to_it_and_no_hit():
+    scans = [Scan(np.array([10.0]), np.array([0.0]), np.array([0.0, 0.0, 0.0]), 0.0, 80.0)]
+    g = occupancy_grid(scans, RES, max_usable=8.0, clamp=NO_CLAMP)
+    assert not g.occupied().any()
+    assert g.probability_at(7.9, 0.0) < 0.5 and g.probability_at(8.1, 0.0) == 0.5
+    assert g.probability_at(10.0, 0.0) == 0.5
+    near = occupancy_grid(scans, RES, max_usable=12.0, clamp=NO_CLAMP)
+    assert near.logodds[near.cell_index(10.0 + 1e-6, 0.0)[:2]] == np.float32(L_OCC)
+    assert near.state_at(10.0 + RES / 2, 0.0) == OCCUPIED  # one hit (p = 0.7) is above occupied_thresh
+
+
+def test_bad_parameters_and_scans_that_mark_nothing_are_refused():
+    scans = box_scans([(0.0, 0.0, 0.0)])
+    with pytest.raises(ValueError, match="resolution"):
+        occupancy_grid(scans, 0.0)
+    with pytest.raises(ValueError, match="clamp"):
+        occupancy_grid(scans, RES, clamp=(0.5, 2.0))
+    with pytest.raises(ValueError, match="l_occ"):
+        occupancy_grid(scans, RES, l_occ=-1.0)
+    blind = [Scan(np.full(5, 8.0), np.linspace(-1, 1, 5), np.zeros(3), 0.0, 8.0)]
+    with pytest.raises(ValueError, match="no beam marks anything"):
+        occupancy_grid(blind, RES)
+    with pytest.raises(ValueError, match="free_thresh"):
+        OccupancyGrid(np.zeros((2, 2)), (0, 0), RES, free_thresh=0.7)
+
+
+def test_logit_and_thresholds():
+    assert logit(0.5) == 0.0
+    g = OccupancyGrid(np.array([[logit(0.1), 0.0, logit(0.9)]]), (0.0, 0.0), 1.0)
+    np.testing.assert_array_equal(g.trinary(), [[FREE, UNKNOWN, OCCUPIED]])
+    np.testing.assert_allclose(g.probability_at([0.5, 1.5, 2.5], [0.5] * 3), [0.1, 0.5, 0.9], rtol=1e-6)
+
+
+# ------------------------------------------------------------------------- command
+
+
+def test_grid_command_writes_the_map_server_pair(tmp_path, capsys):
+    from fuzzybrep.scans.csvscans import write_csv
+
+    scans = box_scans([(x, 0.0, 0.5 * x) for x in (-1.0, 0.0, 1.0)])
+    write_csv(tmp_path / "room.csv", scans)
+    rc = cli.main(["grid", str(tmp_path / "room.csv"), "--out", str(tmp_path / "out"), "--name", "room",
+                   "--resolution", "0.05"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "cells" in out and "free area" in out and "bytes" in out
+    m = read_ros_map(tmp_path / "out" / "room.yaml")
+    g = occupancy_grid(read_scans(tmp_path / "room.csv"), 0.05)
+    np.testing.assert_array_equal(m.image, grid_image(g))
+    assert m.resolution == 0.05 and m.origin == (g.origin[0], g.origin[1], 0.0)
+    assert (tmp_path / "out" / "room.pgm").is_file()
+
+
+def test_grid_command_refuses_bag_options_for_other_formats(tmp_path, capsys):
+    from fuzzybrep.scans.csvscans import write_csv
+
+    write_csv(tmp_path / "room.csv", box_scans([(0.0, 0.0, 0.0)]))
+    assert cli.main(["grid", str(tmp_path / "room.csv"), "--out", str(tmp_path), "--scan-topic", "/scan"]) == 2
+    assert "--scan-topic" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli.main(["grid", str(tmp_path / "room.csv"), "--out", str(tmp_path), "--resolution", "0"])
+
+
+# ------------------------------------------------------------------------- real log
+
+#: free area of the Intel lab's crisp B-rep map built from the same log with the same 8 m usable
+#: range (fuzzybrep build at 01cabcc: 474.6 m²): the grid must tell the same story about free space
+INTEL_FREE_AREA = 475.0
+
+
+@pytest.mark.reallog
+def test_intel_grid_free_area_and_round_trip(tmp_path):
+    scans = read_scans(log_path("intel"))
+    g = occupancy_grid(scans, 0.05)
+    assert g.free_area() == pytest.approx(INTEL_FREE_AREA, rel=0.10)
+    assert g.occupied().sum() > 5000  # walls all round the lab
+    yaml_path, pgm_path = write_grid(tmp_path / "intel.yaml", g)
+    m = read_ros_map(yaml_path)
+    np.testing.assert_array_equal(m.image, grid_image(g))
+    np.testing.assert_array_equal(m.occupancy(), g.trinary())
+    assert pgm_path.stat().st_size < g.cells + 200  # one byte a cell plus the header
