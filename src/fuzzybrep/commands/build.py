@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._maps import DEFAULT_TME_M, add_mf_arguments
+
 NAME = "build"
 HELP = "build a map from a laser log (CARMEN, CSV scans or a ROS bag)"
 
@@ -32,6 +34,7 @@ def add_arguments(p) -> None:
     p.add_argument("--min-hole-area", type=float, help="prune holes smaller than this (map unit², default from the config)")
     p.add_argument("--simplify", type=float, help="vertex reduction tolerance (map unit, default from the config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    add_mf_arguments(p, default_tme=DEFAULT_TME_M)
     from ._bagopts import add_bag_arguments
 
     add_bag_arguments(p)
@@ -60,7 +63,7 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..build import build_map
-    from ..mapfile import MapFile, write_map
+    from ._maps import fuzzify_from_args
     from ..plot import save_map_figure
     from ..scans.consolidate import consolidate_pairs
     from ..scans.read import ReadReport, read_scans
@@ -92,7 +95,12 @@ def run(args) -> int:
         "line_extractor": args.lines,
         "built_with": "fuzzybrep",
     }
-    nbytes = write_map(args.out, MapFile(result.crisp, [], poses, meta))
+    t_fuzzy = time.perf_counter()
+    if args.frontier_mf is None:
+        args.frontier_mf = args.mf  # frontier edges get their own FM index, same function until told otherwise
+    fuzzy = fuzzify_from_args(result.crisp, args)
+    result.timings["fuzzify"] = time.perf_counter() - t_fuzzy
+    nbytes = fuzzy.save(args.out, poses=poses, metadata=meta)
     if args.plot:
         save_map_figure(args.plot, result.crisp, poses[:, :2], title=f"{Path(args.log).name}: crisp B-rep map")
     seconds = time.perf_counter() - t0
