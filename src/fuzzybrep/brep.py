@@ -220,10 +220,9 @@ def validate_ring(vertices: np.ndarray, name: str = "ring") -> None:
     if dup.any():
         i = int(np.argmax(dup))
         raise GeometryError(f"repeats vertex {(i + 1) % len(v) + 1}", ring=name, vertex=i + 1)
-    ring = shapely.LinearRing(v)
-    if abs(shapely.area(shapely.Polygon(v))) == 0:
+    if shapely.area(shapely.convex_hull(shapely.multipoints(v))) == 0:
         raise GeometryError("polygon has zero area (all vertices on one line)", ring=name)
-    if not ring.is_simple:
+    if not shapely.LinearRing(v).is_simple:
         reason = shapely.is_valid_reason(shapely.Polygon(v))
         raise GeometryError(f"self-intersecting: {reason}", ring=name, vertex=_nearest_vertex(v, reason))
 

@@ -22,7 +22,7 @@ from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
 from .evidence import EvidenceConfig, Rays
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
-from .scans.filters import BeamConfig, classify
+from .scans.filters import BeamConfig, classify_all
 from .scans.scan import Scan
 
 #: the thesis's TME in metres: 15 mm laser error + 184.13 mm odometry error (Appendix I)
@@ -39,9 +39,15 @@ class BuildConfig:
     use_evidence: bool = True  #: clip rays against other scans' obstacles (truthful free space)
     min_piece_area: float = 0.05  #: detached free pieces smaller than this are noise (map unit²)
     min_hole_area: float = 0.0  #: holes smaller than this are pruned
-    simplify: float = 0.0  #: vertex reduction tolerance (0: none)
+    tme: float = THESIS_TME_M  #: total maximum error (map unit): the uncertainty the map carries
+    simplify: float | None = None  #: vertex reduction tolerance; None: a quarter of TME
     kind_radius: float = 0.1  #: an edge within this of a hit is an obstacle edge, else a frontier
     unit: str = "m"
+
+    @property
+    def simplify_tolerance(self) -> float:
+        """Details finer than a quarter of TME are not justified by the map's uncertainty (5.3)."""
+        return self.tme / 4 if self.simplify is None else self.simplify
 
 
 @dataclass
@@ -78,7 +84,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         raise ValueError("no scans to build a map from")
     timer = _Timer()
     with timer("beams"):
-        beams = [classify(s, config.beams) for s in scans]
+        beams = classify_all(scans, config.beams)
     with timer("evidence"):
         rays = rays_of(scans, beams)
         ev = evidence.gather(rays, config.evidence) if config.use_evidence else None
@@ -95,7 +101,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         geom = brep.union(brep.rings_to_shapely([p.ring for p in polygons]))
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
-        geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify)
+        geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):
         crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp

@@ -11,9 +11,16 @@ all scans saw:
    and later crossed by at least ``clear_crossings`` rays (and by more rays than it had hits)
    after the last hit anywhere in its 3 x 3 neighbourhood is gone (a person who walked away, a
    door opened). The neighbourhood keeps a chair leg that rays graze through pose noise from
-   being cleared. Newer evidence wins: thesis 6.2, future work 2;
+   being cleared. With ``clear`` off (a static world) every cell ever hit stays occupied;
 4. each beam's free range is clipped at the first occupied cell along it that lies more than
-   ``own_margin`` in front of its own end.
+   ``own_margin`` in front of its own end. Evidence must be of standing to stop a ray: a cell hit
+   fewer than ``solid_hits`` times and by less than ``block_ratio`` of the rays that crossed it
+   is noise at the edge of something (a mixed pixel, pose jitter, a passing leg) and stops none.
+   Among evidence of standing the newest wins, both ways (thesis 6.2, future work 2): an
+   obstacle put down later stops the older rays that crossed its place;
+5. after the union, occupied cells hit ``carve_hits`` times or more that the free space still
+   swallowed (a thin wall seen from both sides, whose two sides' free space meets through pose
+   error) are cut back out (``carve``).
 
 The grid is scaffolding: it is dropped once the free ranges are known, and the map stays a B-rep.
 """
@@ -36,12 +43,13 @@ class EvidenceConfig:
     cell: float = 0.05  #: grid cell size (map unit)
     step: float = 0.05  #: sampling step along rays
     cross_margin: float = 0.15  #: a ray crosses cells only this far short of its end
-    own_margin: float = 0.10  #: evidence closer than this to a beam's own end is its own surface
+    own_margin: float = 0.12  #: evidence closer than this to a beam's own end is its own surface
     clear_crossings: int = 3  #: crossings after the last hit needed to clear an obstacle
     clear: bool = True  #: allow later free rays to clear obstacles (dynamic environments)
     solid_hits: int = 3  #: a cell hit this often blocks rays whatever crossed it
     carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
+    carve_min_cells: int = 1  #: cut out only connected groups of at least this many such cells
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     chunk: int = 2_000_000  #: samples per batch, to bound memory
 
@@ -110,6 +118,13 @@ def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
     r = cfg.carve_depth
     for dx, dy in ((r, 0), (-r, 0), (0, r), (0, -r)):
         deep[deep] = shapely.contains_xy(free, cx[deep] + dx, cy[deep] + dy)
+    if cfg.carve_min_cells > 1 and deep.any():
+        mask = np.zeros(nx * ny, bool)
+        mask[cand[deep]] = True
+        labels, _ = ndimage.label(mask.reshape(ny, nx), structure=np.ones((3, 3), bool))
+        lab = labels.ravel()[cand[deep]]
+        size = np.bincount(lab)
+        deep[np.flatnonzero(deep)[size[lab] < cfg.carve_min_cells]] = False
     h = ev.cell / 2
     return shapely.union_all(shapely.box(cx[deep] - h, cy[deep] - h, cx[deep] + h, cy[deep] + h))
 
@@ -192,19 +207,18 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     def crossings(chunk):
         lo, hi = chunk
         ray, _, c = _sample_cells(g, nx, reach, lo, hi, cfg.step)
-        # one crossing per ray and cell, only if newer than the cell's last nearby hit
+        # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
         first_in_cell = np.r_[True, (c[1:] != c[:-1]) | (ray[1:] != ray[:-1])]
-        newer = rays.time[ray] > last_near[c]
-        c = c[first_in_cell]
-        return np.bincount(c[newer[first_in_cell]], minlength=nx * ny), np.bincount(c, minlength=nx * ny)
+        c, t = c[first_in_cell], rays.time[ray[first_in_cell]]
+        return np.bincount(c[t > last_near[c]], minlength=nx * ny), np.bincount(c, minlength=nx * ny)
 
     parts = _parallel(crossings, _chunks(reach, cfg))
-    after = sum(p[0] for p in parts)
-    total = sum(p[1] for p in parts)
-    cleared = (after >= cfg.clear_crossings) & (after > hits_near)
-    # a cell hit once or twice but crossed hundreds of times is noise at the edge of something
-    # (a mixed pixel, pose jitter), not an obstacle
-    solid = (hits >= cfg.solid_hits) | (hits >= cfg.block_ratio * total)
+    after_near = sum(p[0] for p in parts)
+    crossed = sum(p[1] for p in parts)
+    cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
+    # a cell hit once or twice but crossed by many times more rays is noise at the edge of
+    # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
+    solid = (hits >= cfg.solid_hits) | (hits >= cfg.block_ratio * crossed)
     ev.occupied = (hits > 0) & ~cleared & solid
     return ev
 

@@ -16,8 +16,10 @@ Two extractors share one output (``Lines``):
 * ``iepf_lines``: iterative end-point fit (split at the farthest point until every point is
   within τ of its chord): what most practitioners use, and the comparison the Hough must stand.
 
-Either way each line is refitted by total least squares on its points, so its accuracy does not
-depend on the θ grid step.
+Either way single points left next to a line and within its tolerance join it (the merge step
+of split-and-merge: the beams right at a corner often fit neither wall at first), and each line
+is refitted by total least squares on its points, so its accuracy does not depend on the θ grid
+step.
 """
 
 from __future__ import annotations
@@ -44,8 +46,8 @@ class LineConfig:
             raise ValueError(f"theta_step must be in (0, 45] degrees, got {self.theta_step}")
         if self.tol_min <= 0 or self.tol_rel < 0:
             raise ValueError("tolerances must be positive")
-        if self.min_points < 2:
-            raise ValueError("min_points must be at least 2")
+        if self.min_points < 3:
+            raise ValueError("min_points must be at least 3")
 
 
 @dataclass(frozen=True)
@@ -227,17 +229,66 @@ def iepf_lines(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: Li
     return fit_lines(points, start[order], stop[order], cfg.min_points)
 
 
+def absorb_strays(points: np.ndarray, lines: Lines, tol: np.ndarray, run_end: np.ndarray, passes: int = 3) -> Lines:
+    """Single points next to a line, within its tolerance, join it (the merge of split-and-merge).
+
+    Near a corner the few beams that fit neither wall at the extraction tolerance are often
+    within tolerance of the refitted line; letting them join keeps corners sharp. A point joins
+    the nearer of its neighbouring lines of the same run; one point per line end per pass.
+    """
+    start, stop = lines.start.copy(), lines.stop.copy()
+    theta, rho = lines.theta.copy(), lines.rho.copy()
+    for _ in range(passes):
+        is_line = np.isfinite(theta)
+        single = np.flatnonzero(~is_line)
+        if single.size == 0:
+            break
+        p = points[start[single]]
+        best = np.full(single.size, np.inf)
+        target = np.full(single.size, -1)
+        for side in (-1, 1):
+            nb = single + side
+            ok = (nb >= 0) & (nb < len(start))
+            nb = np.where(ok, nb, 0)
+            ok &= is_line[nb] & (run_end[start[nb]] == run_end[start[single]])
+            d = np.abs(p[:, 0] * np.cos(theta[nb]) + p[:, 1] * np.sin(theta[nb]) - rho[nb])
+            take = ok & (d <= tol[start[single]]) & (d < best)
+            best[take], target[take] = d[take], nb[take]
+        move = target >= 0
+        # one point per line end per pass: points are ordered, so keep the first claim on each end
+        key = target * 2 + (single > target)
+        _, first = np.unique(np.where(move, key, -1), return_index=True)
+        claim = np.zeros(single.size, bool)
+        claim[first] = True
+        move &= claim
+        if not move.any():
+            break
+        s_, t_ = single[move], target[move]
+        before = s_ < t_
+        start[t_[before]] = start[s_[before]]
+        stop[t_[~before]] = stop[s_[~before]]
+        keep = np.ones(len(start), bool)
+        keep[s_] = False
+        start, stop, theta, rho = start[keep], stop[keep], theta[keep], rho[keep]
+    return Lines(start, stop, theta, rho)
+
+
 def fit_lines(points: np.ndarray, start: np.ndarray, stop: np.ndarray, min_points: int = 2) -> Lines:
     """Total-least-squares normal form of every [start, stop) group; NaN for smaller groups."""
-    x, y = points[:, 0], points[:, 1]
-    c = lambda v: np.concatenate(([0.0], np.cumsum(v)))  # noqa: E731
-    sx, sy, sxx, sxy, syy = c(x), c(y), c(x * x), c(x * y), c(y * y)
-    m = (stop - start).astype(np.float64)
-    mx = (sx[stop] - sx[start]) / m
-    my = (sy[stop] - sy[start]) / m
-    cxx = (sxx[stop] - sxx[start]) / m - mx * mx
-    cxy = (sxy[stop] - sxy[start]) / m - mx * my
-    cyy = (syy[stop] - syy[start]) / m - my * my
+    m_int = (stop - start).astype(np.int64)
+    owner = np.repeat(np.arange(len(start)), m_int)
+    idx = spans(start, m_int)
+    # moments about each line's own first point: no cancellation however many scans are stacked
+    x = points[idx, 0] - points[start, 0][owner]
+    y = points[idx, 1] - points[start, 1][owner]
+    m = m_int.astype(np.float64)
+    k = len(start)
+    mx = np.bincount(owner, x, k) / m
+    my = np.bincount(owner, y, k) / m
+    cxx = np.bincount(owner, x * x, k) / m - mx * mx
+    cxy = np.bincount(owner, x * y, k) / m - mx * my
+    cyy = np.bincount(owner, y * y, k) / m - my * my
+    mx, my = mx + points[start, 0], my + points[start, 1]
     theta = 0.5 * np.arctan2(2 * cxy, cxx - cyy) + np.pi / 2  # normal = direction + 90°
     rho = mx * np.cos(theta) + my * np.sin(theta)
     flip = rho < 0
@@ -275,8 +326,37 @@ def intersect(theta1, rho1, theta2, rho2, min_angle: float = 0.0):
 
 
 def extract(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: LineConfig = LineConfig()) -> Lines:
-    """Lines by the configured method."""
-    return (hough_lines if cfg.method == "hough" else iepf_lines)(points, ranges, np.asarray(runs, np.int64).reshape(-1, 2), cfg)
+    """Lines by the configured method, stray points absorbed, every line refitted."""
+    runs = np.asarray(runs, np.int64).reshape(-1, 2)
+    lines = (hough_lines if cfg.method == "hough" else iepf_lines)(points, ranges, runs, cfg)
+    if len(lines) == 0:
+        return lines
+    run_end = np.zeros(len(points), np.int64)
+    run_end[spans(runs[:, 0], runs[:, 1] - runs[:, 0])] = np.repeat(runs[:, 1], runs[:, 1] - runs[:, 0])
+    loose = tolerance(ranges, cfg) * cfg.relax[-1]
+    lines = absorb_strays(points, lines, loose, run_end)
+    lines = fit_lines(points, lines.start, lines.stop, cfg.min_points)
+    return demote_misfits(points, lines, loose, cfg.min_points)
+
+
+def demote_misfits(points: np.ndarray, lines: Lines, tol: np.ndarray, min_points: int) -> Lines:
+    """Lines whose refitted line misses one of their own points by more than tol fall apart
+    into single points: a line must fit what it claims to represent."""
+    m = lines.stop - lines.start
+    idx = spans(lines.start, m)
+    owner = np.repeat(np.arange(len(m)), m)
+    th, rh = lines.theta[owner], lines.rho[owner]
+    resid = np.abs(points[idx, 0] * np.cos(th) + points[idx, 1] * np.sin(th) - rh)
+    bad_pt = np.isfinite(th) & (resid > tol[idx])
+    bad = np.bincount(owner[bad_pt], minlength=len(m)) > 0
+    if not bad.any():
+        return lines
+    singles = spans(lines.start[bad], m[bad])
+    start = np.concatenate((lines.start[~bad], singles))
+    order = np.argsort(start, kind="stable")
+    stop = np.concatenate((lines.stop[~bad], singles + 1))[order]
+    start = start[order]
+    return fit_lines(points, start, stop, min_points)
 
 
 def spans(start: np.ndarray, count: np.ndarray) -> np.ndarray:

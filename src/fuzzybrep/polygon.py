@@ -42,6 +42,7 @@ class PolygonConfig:
     jump_angle: float = np.radians(10.0)  #: λ of the adaptive depth-jump test (Borges & Aldon)
     jump_floor: float = 0.05  #: depth-jump allowance added to the geometric one (3σ of range noise)
     corner_angle: float = np.radians(15.0)  #: lines meeting at less than this get no shared vertex
+    corner_bridge: int = 2  #: stray single points between two lines that a corner may replace
     clearance: float = 0.05  #: free range kept along unknown beams (the sensor's own body)
 
 
@@ -135,7 +136,9 @@ class _Beams:
         dbeta[last] += 2 * np.pi
         typical = np.where(counts > 1, (beta[last] - beta[first]) / np.maximum(counts - 1, 1), np.pi)[sid]
         known = st != NONE
-        cont = depth_continuous(f, f[nxt], dbeta, cfg) & (dbeta < 2.5 * typical) & known & known[nxt] & ~half_end
+        # beams farther apart than the jump angle tell nothing about the surface between them
+        cont = (depth_continuous(f, f[nxt], dbeta, cfg) & (dbeta < 2.5 * typical) & (dbeta < cfg.jump_angle)
+                & known & known[nxt] & ~half_end)
 
         # a 360° scan starts right after a break, so that no run of beams wraps around
         for k in np.flatnonzero(self.full):
@@ -211,7 +214,7 @@ class _Beams:
         out = c[re_] < f[re_] - eps
         on_beam(_C, re_[out], c[re_[out]], wk[re_[out]])
         last_kind = np.where(out, FRONTIER, wk[re_]).astype(np.uint8)
-        if len(lines):
+        if len(lines) and len(lr):
             self._line_vertices(add, lines, lr, last_kind)
         return np.concatenate(keys), np.column_stack((np.concatenate(xs), np.concatenate(ys))), np.concatenate(ks)
 
@@ -220,7 +223,9 @@ class _Beams:
 
         Consecutive lines of one run share a corner vertex at their intersection (thesis
         3.2.1.2) when they meet at a real angle, close to their end points and between their
-        rays; otherwise each keeps its own end and a short edge joins them.
+        rays; otherwise each keeps its own end and a short edge joins them. Up to
+        ``corner_bridge`` stray points between two lines (the beams right at a corner often fit
+        neither) give way to the corner.
         """
         beta, pts, f, tol = self.beta, self.pts, self.f, self.tol
         run_of = np.searchsorted(runs[:, 0], lines.start, side="right") - 1
@@ -229,32 +234,47 @@ class _Beams:
         is_line = np.isfinite(th)
         sx, sy = self._ray_points(th, rh, start)
         ex, ey = self._ray_points(th, rh, stop - 1)
-        both = (run_of[1:] == run_of[:-1]) & is_line[1:] & is_line[:-1]
-        corner = np.zeros(len(start), bool)  # line k ends at a corner shared with line k+1
-        if both.any():
-            k = np.flatnonzero(both)
-            x, y = intersect(th[k], rh[k], th[k + 1], rh[k + 1], self.cfg.corner_angle)
-            j = start[k + 1]  # first beam of the second line; j - 1 is the last of the first
-            halfstep = 0.5 * (beta[j] - beta[j - 1])
+        n = len(start)
+        corner = np.zeros(n, bool)  # line k ends at a corner shared with a later line
+        begins_at_corner = np.zeros(n, bool)
+        dropped = np.zeros(n, bool)  # stray single points a corner replaces
+        single = ~is_line
+        for gap in range(1, self.cfg.corner_bridge + 2):
+            # line k and line k + gap of one run, with only single points between them
+            k = np.arange(n - gap)
+            ok = is_line[k] & is_line[k + gap] & (run_of[k] == run_of[k + gap]) & ~corner[k] & ~begins_at_corner[k + gap]
+            for m in range(1, gap):
+                ok &= single[k + m]
+            k = k[ok]
+            if k.size == 0:
+                continue
+            x, y = intersect(th[k], rh[k], th[k + gap], rh[k + gap], self.cfg.corner_angle)
+            i, j = stop[k] - 1, start[k + gap]  # last beam of the first line, first of the second
             with np.errstate(invalid="ignore"):
                 bx = np.arctan2(y, x)
                 bx = bx + 2 * np.pi * np.round((beta[j] - bx) / (2 * np.pi))
-                near = np.maximum(4 * tol[j], 2 * np.hypot(*(pts[j] - pts[j - 1]).T))
-                ok = (
+                near = np.maximum(4 * tol[j], 2 * np.hypot(*(pts[j] - pts[i]).T))
+                # within one beam of the junction: noise may hand the corner beam to either line.
+                # Every line has at least min_points >= 3 points, so the corner still comes after
+                # the first line's start and before the second line's end: the order holds.
+                good = (
                     np.isfinite(x)
-                    & (bx >= beta[j - 1] - halfstep) & (bx <= beta[j] + halfstep)
+                    & (bx >= beta[i - 1]) & (bx <= beta[j + 1])
                     & (np.hypot(x - pts[j, 0], y - pts[j, 1]) <= near)
-                    & (np.hypot(x - pts[j - 1, 0], y - pts[j - 1, 1]) <= near)
+                    & (np.hypot(x - pts[i, 0], y - pts[i, 1]) <= near)
                 )
-            corner[k[ok]] = True
-            add(j[ok] + _CORNER, x[ok], y[ok], OBSTACLE)
-        begins_at_corner = np.r_[False, corner[:-1]]
+            k, x, y, j = k[good], x[good], y[good], j[good]
+            corner[k] = True
+            begins_at_corner[k + gap] = True
+            for m in range(1, gap):
+                dropped[k + m] = True
+            add(j + _CORNER, x, y, OBSTACLE)
         # the last line of each run hands over to the staircase or the next wedge
         last = np.r_[run_of[1:] != run_of[:-1], True]
         end_kind = np.full(len(start), OBSTACLE, np.uint8)
         end_kind[last] = last_kind[run_of[last]]
-        single = ~is_line
-        add(start[single] + _P, sx[single], sy[single], end_kind[single])
+        keep = single & ~dropped
+        add(start[keep] + _P, sx[keep], sy[keep], end_kind[keep])
         s_ok = is_line & ~begins_at_corner
         add(start[s_ok] + _S, sx[s_ok], sy[s_ok], OBSTACLE)
         e_ok = is_line & ~corner

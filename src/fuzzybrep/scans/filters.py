@@ -1,23 +1,29 @@
-"""Per-scan beam classification and the spike filter.
+"""Beam classification and the spike filter, for all scans at once.
 
 Each beam gets a status and a free range:
 
 * RETURN: it hit something at ``range`` (below the usable maximum): free up to there;
-* FAR: it hit something beyond the usable maximum (``max_usable``), where 1° between beams is
-  too coarse to trust the space between them: free up to ``max_usable``, the end is a frontier;
+* FAR: it hit something beyond the usable maximum (``max_usable``), where the spacing between
+  beams is too coarse to trust the space between them: free up to ``max_usable``, the end is a
+  frontier;
 * NONE: no return (range at or above the sensor maximum): unknown, not an obstacle. Free only up
   to ``no_return_free`` (0 by default: nothing is claimed);
-* CLIPPED: set later where evidence from other scans or the spike filter shortens the beam.
+* CLIPPED: set where the spike filter (here) or evidence from other scans (evidence.py) shortens
+  the beam.
 
-The spike filter handles what the thesis papered over by hand (5.2): a narrow group of beams
-(at most ``spike_width``) reaching much farther than the beams on both sides has passed through
-glass or a gap too narrow to matter. Its free range is cut back to the longer of its two
-neighbours, so the map gets no needle of free space, never by editing the data.
+The spike filter handles what the thesis papered over by hand (5.2). A group of beams that all
+reach beyond both neighbouring beams by more than ``spike_jump``, through an opening narrower
+than ``min_gap`` (the distance between the two neighbours' endpoints), has passed through glass
+or a gap too narrow to be of use; its free range is cut back to the farther of the two
+neighbours, so the map gets no needle or fan of free space. The data are never edited: only how
+far each beam's free space reaches. ``min_gap`` defaults to 2·TME: a gap that narrow holds no
+free space at α = 0 anyway.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -29,39 +35,64 @@ from .scan import Scan
 class BeamConfig:
     max_usable: float = 8.0  #: longest range whose free space is trusted (LMS200: 8 m in mm mode)
     no_return_free: float = 0.0  #: free range claimed along a beam with no return
-    spike_width: int = 3  #: widest group of beams (in beams) treated as a spike
+    spike_width: int = 16  #: widest group of beams (in beams) examined as a possible spike
     spike_jump: float = 0.5  #: a spike reaches this much (map unit) beyond both neighbours, at least
+    min_gap: float = 0.4  #: openings narrower than this (map unit) let no free space through
 
 
 def classify(scan: Scan, cfg: BeamConfig = BeamConfig()) -> tuple[np.ndarray, np.ndarray]:
-    """(free, status) of every beam of a scan, before any evidence from other scans."""
-    r = scan.ranges
-    ret = scan.returns
-    status = np.where(ret, np.where(r > cfg.max_usable, FAR, RETURN), NONE).astype(np.int8)
-    free = np.where(status == RETURN, r, np.where(status == FAR, cfg.max_usable, min(cfg.no_return_free, cfg.max_usable)))
-    if cfg.spike_width > 0:
-        free, status = despike(free, status, cfg.spike_width, cfg.spike_jump, scan.full_circle)
-    return free, status
+    """(free, status) of every beam of one scan, before any evidence from other scans."""
+    return classify_all([scan], cfg)[0]
 
 
-def despike(free: np.ndarray, status: np.ndarray, width: int, jump: float, full_circle: bool = False):
-    """Cut back narrow groups of beams that reach far beyond both neighbours (see module doc)."""
-    n = len(free)
+def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig()) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(free, status) of every beam of every scan; scans with the same beam count go together."""
+    out: list = [None] * len(scans)
+    groups: dict[tuple[int, bool], list[int]] = {}
+    for k, s in enumerate(scans):
+        groups.setdefault((len(s.ranges), s.full_circle), []).append(k)
+    for (n, full), idx in groups.items():
+        r = np.stack([scans[k].ranges for k in idx])
+        mr = np.array([scans[k].max_range for k in idx])[:, None]
+        ret = (r < mr) & (r > 0)
+        status = np.where(ret, np.where(r > cfg.max_usable, FAR, RETURN), NONE).astype(np.int8)
+        free = np.where(status == RETURN, r, np.where(status == FAR, cfg.max_usable, min(cfg.no_return_free, cfg.max_usable)))
+        if cfg.spike_width > 0 and n >= 3:
+            b = np.stack([scans[k].bearings for k in idx])
+            free, status = despike(free, status, b, cfg, full)
+        for j, k in enumerate(idx):
+            out[k] = (free[j], status[j])
+    return out
+
+
+def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig, full_circle: bool = False):
+    """Cut back narrow groups of beams reaching far beyond both neighbours (see module doc).
+
+    free, status, bearings: (S, n) arrays, one row per scan. Groups of w = 1, 2, ... beams are
+    examined in turn, each on the ranges the narrower groups left.
+    """
+    S, n = free.shape
     f = free.copy()
     st = status.copy()
-    if n < 3:
-        return f, st
-    # try every group width w: beams i..i+w-1 all longer than both flanking beams by `jump`
-    for w in range(1, width + 1):
-        idx = np.arange(n) if full_circle else np.arange(1, n - w)
-        lo = (idx - 1) % n
-        hi = (idx + w) % n
-        inner = np.stack([f[(idx + k) % n] for k in range(w)])
-        flank = np.maximum(f[lo], f[hi])
-        known = (status[lo] != NONE) & (status[hi] != NONE)
-        spike = known & (inner.min(axis=0) > flank + jump)
+    cos_b, sin_b = np.cos(bearings), np.sin(bearings)
+    known = status != NONE
+    cols = np.arange(n)
+    for w in range(1, min(cfg.spike_width, n - 2) + 1):
+        first = cols if full_circle else cols[1 : n - w]
+        lo, hi = (first - 1) % n, (first + w) % n
+        inner = f[:, first % n]
+        for k in range(1, w):
+            inner = np.minimum(inner, f[:, (first + k) % n])
+        flank = np.maximum(f[:, lo], f[:, hi])
+        # the opening: the distance between the two neighbouring beams' endpoints
+        gx = f[:, lo] * cos_b[:, lo] - f[:, hi] * cos_b[:, hi]
+        gy = f[:, lo] * sin_b[:, lo] - f[:, hi] * sin_b[:, hi]
+        spike = known[:, lo] & known[:, hi] & (inner > flank + cfg.spike_jump) & (np.hypot(gx, gy) < cfg.min_gap)
+        if not spike.any():
+            continue
+        rows, c = np.nonzero(spike)
         for k in range(w):
-            j = (idx[spike] + k) % n
-            f[j] = np.minimum(f[j], flank[spike])
-            st[j] = CLIPPED
+            j = (first[c] + k) % n
+            f[rows, j] = np.minimum(f[rows, j], flank[rows, c])
+            st[rows, j] = CLIPPED
     return f, st

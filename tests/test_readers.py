@@ -1,0 +1,221 @@
+"""Scans in: CARMEN logs, the CSV scan format, bad input, consolidation of 180° scans (thesis 5.2)."""
+
+from __future__ import annotations
+
+import gzip
+
+import numpy as np
+import pytest
+
+from fuzzybrep import ScanFormatError, ScanValueError
+from fuzzybrep.scans.carmen import read_carmen
+from fuzzybrep.scans.consolidate import consolidate, consolidate_pairs
+from fuzzybrep.scans.csvscans import read_csv, write_csv
+from fuzzybrep.scans.read import ReadReport, read_scans
+from fuzzybrep.scans.scan import Scan, even_bearings
+
+from conftest import log_path
+
+
+def flaser(ranges, pose=(1.0, 2.0, 0.5), t=10.0) -> str:
+    r = " ".join(str(x) for x in ranges)
+    x, y, th = pose
+    return f"FLASER {len(ranges)} {r} {x} {y} {th} {x} {y} {th} {t} host {t}\n"
+
+
+def write_log(path, lines, gz=False):
+    data = "".join(lines).encode()
+    if gz:
+        data = gzip.compress(data)
+    path.write_bytes(data)
+    return path
+
+
+GOOD = [
+    "# a comment\n",
+    "PARAM robot_frontlaser_offset 0.0 nohost 0\n",
+    "ODOM 0 0 0 0 0 0 0.1 host 0.1\n",
+    flaser([1.0, 2.0, 81.83, 3.0, 4.0], t=1.0),
+    flaser([1.5, 2.5, 3.5, 81.83, 2.0], pose=(2.0, 2.0, 0.0), t=2.0),
+]
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_carmen_reads_flaser_plain_and_gzip(tmp_path, gz):
+    p = write_log(tmp_path / ("a.log.gz" if gz else "a.log"), GOOD, gz)
+    scans = read_scans(p)
+    assert len(scans) == 2
+    s = scans[0]
+    assert np.allclose(s.ranges, [1.0, 2.0, 81.83, 3.0, 4.0])
+    # five beams from -90° to +90° with both ends included
+    assert np.allclose(np.degrees(s.bearings), [-90, -45, 0, 45, 90])
+    assert np.allclose(s.pose, [1.0, 2.0, 0.5]) and s.timestamp == 1.0
+    # the largest range is the "no return" sentinel by default
+    assert s.max_range == 81.83
+    assert s.returns.tolist() == [True, True, False, True, True]
+    assert s.source.endswith(":4")
+
+
+def test_carmen_explicit_max_range(tmp_path):
+    p = write_log(tmp_path / "a.log", GOOD)
+    s = read_carmen(p, max_range=3.2)[0]
+    assert s.returns.tolist() == [True, True, False, True, False]
+
+
+@pytest.mark.parametrize(
+    "line, field, cls, words",
+    [
+        (flaser([1.0, float("nan"), 2.0]), "r_2", ScanValueError, "not finite"),
+        (flaser([1.0, -2.0, 2.0]), "r_2", ScanValueError, "negative"),
+        (flaser([1.0, "abc", 2.0]), "r_2", ScanFormatError, "not a number"),
+        ("FLASER 5 1.0 2.0 3.0\n", None, ScanFormatError, "truncated"),
+        ("FLASER x 1.0\n", "n", ScanFormatError, "not an integer"),
+        ("FLASER 2 1.0 2.0 1 2 nan 1 2 3 4 h 4\n", "theta", ScanValueError, "not finite"),
+        ("FLASER 2 1.0 2.0 1 2 3 1 2 3 oops h 4\n", "timestamp", ScanFormatError, "not a number"),
+    ],
+)
+def test_carmen_bad_lines_name_file_line_and_field(tmp_path, line, field, cls, words):
+    p = write_log(tmp_path / "bad.log", [GOOD[3], line, GOOD[4]])
+    with pytest.raises(cls) as e:
+        read_carmen(p)
+    err = e.value
+    assert err.line == 2 and err.field == field and words in str(err)
+    assert "bad.log" in str(err) and "line 2" in str(err)
+
+
+def test_carmen_skip_bad_reports_how_many(tmp_path):
+    p = write_log(tmp_path / "bad.log", [GOOD[3], flaser([1.0, -1.0, 2.0]), "FLASER 9 1 2\n", GOOD[4]])
+    report = ReadReport()
+    scans = read_carmen(p, skip_bad=True, report=report)
+    assert len(scans) == 2 and report.skipped == 2 and report.scans == 2
+    assert [e.line for e in report.errors] == [2, 3]
+    assert "2 bad lines skipped" in report.summary()
+
+
+def test_carmen_truncated_gzip_is_an_error_unless_skipping(tmp_path):
+    data = gzip.compress("".join(GOOD * 5000).encode())
+    p = tmp_path / "cut.log.gz"
+    p.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ScanFormatError, match="truncated or corrupt"):
+        read_carmen(p)
+    report = ReadReport()
+    scans = read_carmen(p, skip_bad=True, report=report)
+    assert 0 < len(scans) < 10000 and report.skipped == 1
+
+
+def test_carmen_empty_and_missing_files(tmp_path):
+    p = write_log(tmp_path / "empty.log", ["# nothing\n", "ODOM 0 0 0 0 0 0 0 h 0\n"])
+    with pytest.raises(ScanFormatError, match="no FLASER scans"):
+        read_carmen(p)
+    with pytest.raises(ScanFormatError, match="no such file"):
+        read_scans(tmp_path / "missing.log")
+
+
+def test_csv_round_trip_is_exact(tmp_path):
+    rng = np.random.default_rng(1)
+    scans = [
+        Scan(rng.uniform(0.1, 9.0, 11), even_bearings(11), rng.normal(size=3), float(k), 8.0, "")
+        for k in range(4)
+    ]
+    p = tmp_path / "s.csv"
+    write_csv(p, scans)
+    back = read_csv(p)
+    assert len(back) == 4
+    for a, b in zip(scans, back):
+        assert np.array_equal(a.ranges, b.ranges) and np.array_equal(a.bearings, b.bearings)
+        assert np.array_equal(a.pose, b.pose) and a.timestamp == b.timestamp and b.max_range == 8.0
+    # and through the dispatcher, gzip-compressed
+    gz = tmp_path / "s.csv.gz"
+    gz.write_bytes(gzip.compress(p.read_bytes()))
+    assert len(read_scans(gz)) == 4
+
+
+HEADER = "scan,time,x,y,theta,bearing,range\n"
+
+
+@pytest.mark.parametrize(
+    "body, line, field, words",
+    [
+        ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,nan\n", 4, "range", "not finite"),
+        ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,-2\n", 4, "range", "negative"),
+        ("0,0,0,0,0,-1,1\n0,0,0,0\n", 4, None, "truncated"),
+        ("0,0,0,0,0,-1,1\n0,0,0,0,0,zero,1\n", 4, "bearing", "not a number"),
+        ("0,0,0,0,0,-1,1\n0,0,0.5,0,0,0,1\n", 4, "x", "changes within scan"),
+        ("0,0,0,0,0,0,1\n0,0,0,0,0,-1,1\n", 4, "bearing", "must increase"),
+        ("0,0,0,0,0,-1,1\n1,1,0,0,0,-1,1\n0,2,0,0,0,-1,1\n", 5, "scan", "not consecutive"),
+    ],
+)
+def test_csv_bad_rows_name_line_and_column(tmp_path, body, line, field, words):
+    p = tmp_path / "bad.csv"
+    p.write_text("# max_range: 8\n" + HEADER + body)  # line 1 directive, line 2 header, rows from line 3
+    with pytest.raises(ScanFormatError) as e:
+        read_csv(p)
+    assert e.value.line == line and e.value.field == field and words in str(e.value)
+    assert "bad.csv" in str(e.value)
+
+
+def test_csv_header_and_directive_errors(tmp_path):
+    p = tmp_path / "h.csv"
+    p.write_text("scan,time,x,y,bearing,range\n0,0,0,0,0,1\n")
+    with pytest.raises(ScanFormatError, match="lacks column.*theta"):
+        read_csv(p)
+    p.write_text("# max_range: -3\n" + HEADER + "0,0,0,0,0,0,1\n")
+    with pytest.raises(ScanFormatError, match="max_range"):
+        read_csv(p)
+    p.write_text("")
+    with pytest.raises(ScanFormatError, match="empty"):
+        read_csv(p)
+
+
+def test_csv_skip_bad_and_max_range(tmp_path):
+    p = tmp_path / "s.csv"
+    p.write_text("# max_range: 5\n" + HEADER + "0,0,0,0,0,-1,1\n0,0,0,0,0,0,9\n1,1,0,0,0,-1,nan\n2,2,0,0,0,-1,4\n")
+    report = ReadReport()
+    scans = read_csv(p, skip_bad=True, report=report)
+    assert len(scans) == 2 and report.skipped == 1
+    assert scans[0].returns.tolist() == [True, False]  # 9 >= max_range 5: no return
+
+
+def test_empty_scan_is_refused():
+    with pytest.raises(ScanValueError):
+        Scan(np.array([1.0, np.nan]), np.array([0.0, 0.1]), np.zeros(3))
+    with pytest.raises(ScanValueError, match="increase"):
+        Scan(np.array([1.0, 1.0]), np.array([0.1, 0.0]), np.zeros(3))
+
+
+def test_consolidation_of_two_180_degree_scans():
+    b = even_bearings(181)  # LMS200: 181 beams over 180° at 1°
+    front = Scan(np.full(181, 2.0), b, np.array([1.0, 1.0, 0.3]), 5.0, 8.0, "front")
+    back = Scan(np.full(181, 3.0), b, np.array([1.0, 1.0, 0.3 + np.pi]), 6.0, 8.0, "back")
+    s = consolidate(front, back)
+    assert s.full_circle
+    assert len(s.ranges) == 360  # the two beams at ±90° are seen by both: kept once
+    assert np.allclose(np.diff(s.bearings), np.radians(1))
+    assert np.isclose(s.bearings[0], -np.pi / 2) and np.isclose(s.bearings[-1], np.radians(269))
+    # front beams keep their ranges; the back scan fills the other half
+    assert np.all(s.ranges[:181] == 2.0) and np.all(s.ranges[181:] == 3.0)
+    # the same world points: a back beam's endpoint lies where the back scan saw it
+    back_end = back.endpoints()[90]  # straight behind the front scan's heading
+    k = np.argmin(np.abs(s.bearings - np.pi))
+    assert np.allclose(s.endpoints()[k], back_end)
+
+
+def test_consolidation_refuses_scans_from_different_spots():
+    b = even_bearings(181)
+    a = Scan(np.ones(181), b, np.array([0.0, 0.0, 0.0]))
+    moved = Scan(np.ones(181), b, np.array([1.0, 0.0, np.pi]))
+    same_heading = Scan(np.ones(181), b, np.array([0.0, 0.0, 0.1]))
+    with pytest.raises(ScanValueError, match="cannot consolidate"):
+        consolidate(a, moved, position_tol=0.05)
+    merged, n = consolidate_pairs([a, same_heading, a, Scan(np.ones(181), b, np.array([0.01, 0.0, np.pi]))])
+    assert n == 1 and len(merged) == 3 and merged[-1].full_circle
+
+
+def test_real_logs_read_with_their_sentinels():
+    for name, n, beams, sentinel in [("intel", 910, 180, 81.83), ("aces", 440, 180, 50.0)]:
+        scans = read_scans(log_path(name))
+        assert len(scans) == n and {len(s.ranges) for s in scans} == {beams}
+        assert scans[0].max_range == sentinel
+        # the sentinel marks the no-return beams, which are a small minority
+        returns = sum(int(s.returns.sum()) for s in scans)
+        assert 0.9 * n * beams < returns < n * beams

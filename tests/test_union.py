@@ -1,0 +1,177 @@
+"""The union into the global map (thesis 3.2.2, 3.2.3) and the map's own file."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import shapely
+
+from fuzzybrep import BRepMap, GeometryError, MapFileError, Ring
+from fuzzybrep import brep
+from fuzzybrep.export import crisp_features, write_geojson
+from fuzzybrep.mapfile import MapFile, read_map, write_map
+
+
+def ring(coords) -> Ring:
+    return Ring(np.asarray(coords, dtype=float))
+
+
+def unite(*rings) -> BRepMap:
+    return BRepMap.from_shapely(brep.union(brep.rings_to_shapely(list(rings))))
+
+
+def octagon(cx, cy, r):
+    a = np.radians(22.5 + 45 * np.arange(8))
+    return ring(np.column_stack((cx + r * np.cos(a), cy + r * np.sin(a))))
+
+
+def check_tables(m: BRepMap):
+    """Orientation and indexing of every vertex and edge table."""
+    for k, region in enumerate(m.regions):
+        assert region.shell.signed_area > 0  # principal / piece: counter-clockwise
+        for h in region.holes:
+            assert h.signed_area < 0  # holes: clockwise
+    for r in m.rings:
+        n = len(r)
+        assert np.array_equal(r.edges, np.column_stack((np.arange(n), (np.arange(n) + 1) % n)))
+        assert len(r.kinds) == n and len(r.fm) == n
+    m.validate()
+
+
+def test_convex_union_figures_3_9_to_3_11():
+    a, b = octagon(0, 0, 2), octagon(2.5, 0.5, 2)
+    m = unite(a, b)
+    check_tables(m)
+    assert len(m.regions) == 1 and m.n_holes == 0
+    ga, gb = shapely.Polygon(a.vertices), shapely.Polygon(b.vertices)
+    assert np.isclose(m.area, ga.area + gb.area - ga.intersection(gb).area)
+    # the two new vertices where the boundaries cross (the red points of Figure 3.9)
+    crossings = shapely.get_coordinates(ga.boundary.intersection(gb.boundary))
+    for p in crossings:
+        assert np.min(np.hypot(*(m.principal.vertices - p).T)) < 1e-9
+    # 8 + 8 edges, minus those inside the other polygon, plus the new vertices: 10 + 10 - ...
+    assert len(m.principal) == len(shapely.get_coordinates(ga.union(gb).exterior)) - 1
+
+
+def test_union_that_creates_a_hole_figures_3_12_3_13():
+    # two U-shapes facing each other close around a courtyard no scan saw: a hole
+    a = ring([(0, 0), (6, 0), (6, 1), (1, 1), (1, 4), (6, 4), (6, 5), (0, 5)])
+    b = ring([(5, 0), (10, 0), (10, 5), (5, 5), (5, 4), (9, 4), (9, 1), (5, 1)])
+    m = unite(a, b)
+    check_tables(m)
+    assert len(m.regions) == 1 and m.n_holes == 1
+    hole = shapely.Polygon(m.holes[0].vertices)
+    assert np.isclose(hole.area, 8 * 3) and hole.equals(shapely.box(1, 1, 9, 4))
+    assert len(m.ring_names()) == 2 and m.ring_names()[1] == "hole 1"
+
+
+def test_disjoint_polygons_keep_both_largest_is_principal():
+    small, big = ring([(10, 0), (11, 0), (11, 1), (10, 1)]), ring([(0, 0), (4, 0), (4, 4), (0, 4)])
+    m = unite(small, big)
+    check_tables(m)
+    assert len(m.regions) == 2 and np.isclose(m.regions[0].area, 16) and np.isclose(m.regions[1].area, 1)
+    assert m.ring_names() == ["principal", "piece 2"]
+
+
+def test_polygons_sharing_an_edge_merge():
+    m = unite(ring([(0, 0), (2, 0), (2, 2), (0, 2)]), ring([(2, 0), (4, 0), (4, 2), (2, 2)]))
+    check_tables(m)
+    assert len(m.regions) == 1 and m.n_holes == 0 and np.isclose(m.area, 8)
+    assert shapely.Polygon(m.principal.vertices).equals(shapely.box(0, 0, 4, 2))
+
+
+def test_polygons_sharing_a_vertex_stay_two_pieces():
+    m = unite(ring([(0, 0), (2, 0), (2, 2), (0, 2)]), ring([(2, 2), (3, 2), (3, 3), (2, 3)]))
+    check_tables(m)
+    assert len(m.regions) == 2 and np.isclose(m.area, 5)
+
+
+def test_identical_polygons():
+    a = octagon(1, 1, 3)
+    m = unite(a, a)
+    check_tables(m)
+    assert np.isclose(m.area, shapely.Polygon(a.vertices).area) and len(m.principal) == 8
+
+
+def test_union_one_by_one_equals_all_at_once():
+    # the thesis unites each new scan polygon with the map in turn; GEOS's cascaded union gives
+    # the same set in any order
+    rng = np.random.default_rng(0)
+    rings = [octagon(*rng.uniform(0, 6, 2), rng.uniform(0.5, 2)) for _ in range(12)]
+    together = brep.union(brep.rings_to_shapely(rings))
+    g = shapely.Polygon()
+    for r in rings[::-1]:
+        g = shapely.union(g, shapely.Polygon(r.vertices))
+    assert shapely.symmetric_difference(together, g).area < 1e-9
+
+
+def test_degenerate_rings_are_refused_naming_the_vertex():
+    with pytest.raises(GeometryError, match="at least 3 vertices"):
+        brep.validate_ring(np.array([(0, 0), (1, 1)]), "principal")
+    with pytest.raises(GeometryError, match="zero area"):
+        brep.validate_ring(np.array([(0, 0), (1, 1), (2, 2)]), "principal")
+    with pytest.raises(GeometryError) as e:
+        brep.validate_ring(np.array([(0, 0), (2, 2), (2, 0), (0, 2)]), "hole 3")  # a bow tie
+    assert e.value.ring == "hole 3" and e.value.vertex is not None and "self-intersecting" in str(e.value)
+    with pytest.raises(GeometryError, match="repeats vertex"):
+        brep.validate_ring(np.array([(0, 0), (1, 0), (1, 0), (0, 1)]))
+
+
+def test_map_file_round_trips_exactly(tmp_path):
+    a = ring([(0, 0), (6, 0), (6, 1), (1, 1), (1, 4), (6, 4), (6, 5), (0, 5)])
+    b = ring([(5, 0), (10, 0), (10, 5), (5, 5), (5, 4), (9, 4), (9, 1), (5, 1)])
+    m = unite(a, b, ring([(20, 0), (21.123456789, 0.1), (20.5, 1 / 3)]))
+    rings = [Ring(r.vertices, np.arange(len(r)) % 2, np.arange(len(r)) % 3 + 1) for r in m.rings]
+    m = m.with_rings(rings)
+    poses = np.array([[0.1, 0.2, 0.3, 1e9 + 0.123]])
+    p = tmp_path / "map.json"
+    write_map(p, MapFile(m, [{"index": 1, "type": "triangular", "tme": 0.2}], poses, {"source": "test"}))
+    back = read_map(p)
+    assert back.crisp.equals_exactly(m) and np.array_equal(back.poses, poses)
+    assert back.metadata == {"source": "test"} and back.membership_functions[0]["tme"] == 0.2
+    assert not list(tmp_path.glob(".*tmp"))  # no temporary left behind
+
+
+def test_map_file_errors_name_the_file(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text("{not json")
+    with pytest.raises(MapFileError, match="bad.json.*not valid JSON"):
+        read_map(p)
+    p.write_text(json.dumps({"format": "fuzzybrep-map", "version": 99}))
+    with pytest.raises(MapFileError, match="version 99"):
+        read_map(p)
+    p.write_text(json.dumps({"format": "fuzzybrep-map", "version": 1, "regions": [{"shell": {"x": [0, 1], "y": [0]}}]}))
+    with pytest.raises(MapFileError, match="malformed.*region 0 shell"):
+        read_map(p)
+    with pytest.raises(MapFileError, match="cannot read"):
+        read_map(tmp_path / "missing.json")
+
+
+def test_failed_write_leaves_the_old_map_intact(tmp_path, monkeypatch):
+    m = unite(octagon(0, 0, 1))
+    p = tmp_path / "map.json"
+    write_map(p, MapFile(m))
+    before = p.read_bytes()
+
+    def boom(*a, **k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("fuzzybrep.mapfile.os.replace", boom)
+    with pytest.raises(MapFileError, match="No space left"):
+        write_map(p, MapFile(unite(octagon(5, 5, 2))))
+    assert p.read_bytes() == before and not list(tmp_path.glob(".*tmp"))
+
+
+def test_geojson_export_is_the_crisp_free_space(tmp_path):
+    a = ring([(0, 0), (6, 0), (6, 1), (1, 1), (1, 4), (6, 4), (6, 5), (0, 5)])
+    b = ring([(5, 0), (10, 0), (10, 5), (5, 5), (5, 4), (9, 4), (9, 1), (5, 1)])
+    m = unite(a, b, ring([(20, 0), (21, 0), (20, 1)]))
+    p = tmp_path / "m.geojson"
+    write_geojson(p, crisp_features(m))
+    d = json.loads(p.read_text())
+    assert d["type"] == "FeatureCollection" and d["features"][0]["properties"]["role"] == "crisp"
+    g = shapely.geometry.shape(d["features"][0]["geometry"])
+    assert g.geom_type == "MultiPolygon" and g.is_valid and np.isclose(g.area, m.area)
+    assert sum(len(p.interiors) for p in g.geoms) == 1
