@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 
 from _browser import chromium_driver
 from _floor import FLOOR_PATH, build_intel, floor_map, floor_poses
-from _fuzzy_shapes import crisp_maps, dumbbell
+from _fuzzy_shapes import crisp_maps, dumbbell, thesis_map
 from conftest import log_path
 from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
@@ -239,6 +239,32 @@ def test_status_line_shows_mu_under_the_cursor(browser, floor, floor_page):
 
 
 @pytest.mark.browser
+def test_drag_pans_wheel_zooms_double_click_fits(browser, floor_page):
+    import time
+
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    open_page(browser, floor_page)
+    canvas = browser.find_element(By.ID, "map")
+    where = "return window.fuzzybrepViewer.toScreen(5, 2)"
+    x0, y0 = browser.execute_script(where)
+    redraws = browser.execute_script("return window.fuzzybrepViewer.redraws")
+    ActionChains(browser).move_to_element(canvas).click_and_hold().move_by_offset(40, 25).release().perform()
+    x1, y1 = browser.execute_script(where)
+    assert (x1 - x0, y1 - y0) == pytest.approx((40, 25), abs=1)
+    browser.execute_script("const c = document.getElementById('map'), r = c.getBoundingClientRect();"
+                           "c.dispatchEvent(new WheelEvent('wheel', {clientX: r.left + 300, clientY: r.top + 200,"
+                           "deltaY: -300, bubbles: true, cancelable: true}))")
+    x2, y2 = browser.execute_script(where)
+    assert abs(x2 - 300) > 1.5 * abs(x1 - 300)  # zoomed in about (300, 200)
+    time.sleep(0.4)  # the view rests: drawn afresh
+    assert browser.execute_script("return window.fuzzybrepViewer.redraws") > redraws
+    ActionChains(browser).double_click(canvas).perform()
+    assert browser.execute_script(where) == pytest.approx([x0, y0], abs=0.5)
+
+
+@pytest.mark.browser
 def test_page_mu_is_the_map_mu(browser, floor, floor_page):
     """The page's μ (sweep and exact) against FuzzyBRepMap.membership at points near the walls."""
     open_page(browser, floor_page)
@@ -254,6 +280,32 @@ def test_page_mu_is_the_map_mu(browser, floor, floor_page):
     # T and V travel at 0.1 mm: μ agrees to a few 1e-4 (a thousand samples of d(α) do the rest)
     np.testing.assert_allclose(got[:, 1], exact, atol=2e-3)
     np.testing.assert_allclose(got[:, 0], sweep, atol=2e-3)
+
+
+def two_rooms():
+    """Two pieces of explored space (two regions), one with a hole, in metres."""
+    room = shapely.Polygon([(0, 0), (3, 0), (3, 2), (0, 2)], [[(1, 0.5), (1, 1.2), (2, 1.2), (2, 0.5)]])
+    g = shapely.MultiPolygon([room, shapely.Polygon([(4, 0), (6, 0), (5, 1.5)])])
+    return fuzzify(BRepMap.from_shapely(g), tme=0.25)
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("make, scale", [(two_rooms, 1.0), (lambda: fuzzify(thesis_map()), 1000.0)],
+                         ids=["two-regions", "thesis-mm-clockwise"])
+def test_page_mu_on_other_maps(browser, tmp_path, make, scale):
+    fz = make()
+    write_html(tmp_path / "map.html", fz)
+    open_page(browser, tmp_path / "map.html")
+    rng = np.random.default_rng(3)
+    V = np.vstack([r.vertices for r in fz.crisp.rings])
+    pts = V[rng.integers(len(V), size=200)] + rng.uniform(-0.3, 0.3, (200, 2)) * scale
+    got = np.array(browser.execute_script(
+        "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
+        "return [m.sweep, m.exact]; })", pts.tolist()))
+    sweep, exact = fz.membership(pts, "sweep"), fz.membership(pts, "exact")
+    assert (sweep > 0).sum() > 80
+    np.testing.assert_allclose(got[:, 1], exact, atol=5e-3)
+    np.testing.assert_allclose(got[:, 0], sweep, atol=5e-3)
 
 
 @pytest.mark.browser

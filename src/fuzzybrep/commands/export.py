@@ -39,11 +39,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     out.add_argument("--ros", metavar="DIR",
                      help="ROS map_server pair DIR/NAME.pgm + DIR/NAME.yaml (trinary; grey levels carry μ, "
                           "see docs/export.md)")
-    out.add_argument("--svg", metavar="OUT.svg", help="standalone SVG picture: crisp map, support band, α-cut outlines")
+    out.add_argument("--svg", metavar="OUT.svg",
+                     help="standalone SVG picture: crisp map, support band, α-cut outlines")
     p.add_argument("--alpha", type=_alpha, action="append", metavar="A",
                    help="α level for --geojson and --svg; repeat for several (default 0 0.25 0.5 0.75 1)")
     p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
-                   help="α-cuts for --geojson and --svg: sweep (the thesis's, default) or exact (Extension principle)")
+                   help="α-cuts for --geojson and --svg: sweep (the thesis's, default) or exact "
+                        "(Extension principle)")
     p.add_argument("--resolution", type=_resolution, default=0.05,
                    help="--ros: cell side in the map's unit (default 0.05)")
     p.add_argument("--name", type=_name, default=None, help="--ros: base name of the files (default: the map file's name)")

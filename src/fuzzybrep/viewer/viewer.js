@@ -465,10 +465,10 @@
     if (poses.length) {
       const r = 6, d = [];
       for (const [x, y, h] of poses) {
-        const [sx, sy] = toScreen(x, y), ux = Math.cos(h), uy = -Math.sin(h);
-        const f = (v) => v.toFixed(1);
-        d.push(`M${f(sx + r * ux)} ${f(sy + r * uy)}L${f(sx - 0.6 * r * ux - 0.45 * r * uy)} ${f(sy - 0.6 * r * uy + 0.45 * r * ux)}` +
-          `L${f(sx - 0.6 * r * ux + 0.45 * r * uy)} ${f(sy - 0.6 * r * uy - 0.45 * r * ux)}Z`);
+        // tip along the heading (y down on screen), base corners either side behind the pose
+        const [sx, sy] = toScreen(x, y), ux = r * Math.cos(h), uy = -r * Math.sin(h);
+        const p = (a, b) => (sx + a * ux - b * uy).toFixed(1) + " " + (sy + a * uy + b * ux).toFixed(1);
+        d.push("M" + p(1, 0) + "L" + p(-0.6, 0.45) + "L" + p(-0.6, -0.45) + "Z");
       }
       ctx.globalAlpha = 0.75; ctx.fillStyle = C.pose; ctx.fill(new Path2D(d.join(""))); ctx.globalAlpha = 1;
     }
@@ -482,6 +482,12 @@
         ctx.fillStyle = fillc; ctx.fill(); ctx.lineWidth = 1.5; ctx.strokeStyle = "#fff"; ctx.stroke();
       }
     }
+    const snap = snapshot.canvas;
+    if (snap.width !== canvas.width || snap.height !== canvas.height) {
+      snap.width = canvas.width; snap.height = canvas.height;
+    }
+    snap.getContext("2d").drawImage(canvas, 0, 0);
+    Object.assign(snapshot, { s: view.s, ox: view.ox, oy: view.oy });
     lastDrawMs = performance.now() - t0;
     redraws++;
     info.textContent = `${D.stats.vertices} vertices, ${D.stats.holes} holes · drawn in ${lastDrawMs.toFixed(0)} ms`;
@@ -489,6 +495,21 @@
   }
 
   const schedule = () => { if (!frame) frame = requestAnimationFrame(draw); };
+
+  /* Panning and zooming show the last picture moved and scaled at once, and draw afresh when the
+     view has rested for a moment: a full drawing of a large map takes longer than a mouse move. */
+  const snapshot = { canvas: document.createElement("canvas"), s: 1, ox: 0, oy: 0 };
+  let settle = 0;
+  function viewChanged() {
+    const f = view.s / snapshot.s;
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.fillStyle = C.outside;
+    ctx.fillRect(0, 0, canvas.width, canvas.height);
+    ctx.setTransform(f, 0, 0, f, dpr * (view.ox - f * snapshot.ox), dpr * (view.oy - f * snapshot.oy));
+    ctx.drawImage(snapshot.canvas, 0, 0);
+    clearTimeout(settle);
+    settle = setTimeout(schedule, 120);
+  }
 
   /* While nothing else happens, read the α-cuts one slider step either side, so that stepping
      with the keys or a slow drag finds them ready. */
@@ -516,7 +537,8 @@
     const m = muAt(x, y);
     const where = m.sweep >= alpha && m.sweep > 0 ? "in the α-band (μ ≥ α)"
       : m.inCrisp ? "inside the inner α-cut (free at confidence α)" : "outside the outer α-cut";
-    status.textContent = `x ${fmt(x)}, y ${fmt(y)} ${unit} · μ = ${fmt(m.sweep)} (sweep) · exact μ = ${fmt(m.exact)} · ${where}`;
+    status.textContent =
+      `x ${fmt(x)}, y ${fmt(y)} ${unit} · μ = ${fmt(m.sweep)} (sweep) · exact μ = ${fmt(m.exact)} · ${where}`;
     status.dataset.mu = String(m.sweep);
     status.dataset.muExact = String(m.exact);
   }
@@ -536,7 +558,7 @@
     cursor = [e.clientX - rect.left, e.clientY - rect.top];
     if (drag) {
       view.ox += cursor[0] - drag[0]; view.oy += cursor[1] - drag[1];
-      drag = cursor; schedule();
+      drag = cursor; viewChanged();
     }
     showStatus();
   });
@@ -554,7 +576,7 @@
     const [x, y] = toMap(sx, sy);
     view.s *= Math.exp(-e.deltaY * 0.0015);
     view.ox = sx - view.s * x; view.oy = sy + view.s * y;
-    schedule();
+    viewChanged();
   }, { passive: false });
   canvas.addEventListener("dblclick", () => { fit(); schedule(); });
   window.addEventListener("resize", () => { resize(); fit(); schedule(); });
