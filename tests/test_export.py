@@ -115,6 +115,22 @@ def test_export_command_ros_free_area_matches_the_crisp_map(floor, floor_file, t
     assert free == pytest.approx(floor.crisp_geometry.area, rel=0.01)
 
 
+def test_ros_export_of_a_map_in_millimetres_is_in_metres(tmp_path, capsys):
+    from _fuzzy_shapes import thesis_map
+    from fuzzybrep.fuzzy import fuzzify
+
+    fz = fuzzify(thesis_map())  # Figure 4.10 in mm, TME 199.13 mm
+    fz.save(tmp_path / "e1.json")
+    assert run("export", tmp_path / "e1.json", "--ros", tmp_path, "--resolution", 0.02) == 0
+    assert "cells of 0.02 m" in capsys.readouterr().out
+    m = read_ros_map(tmp_path / "e1.yaml")
+    assert m.resolution == 0.02
+    x0, y0, _, _ = fz.crisp_geometry.bounds  # 300 mm
+    assert -0.6 < m.origin[0] < x0 / 1000 and -0.6 < m.origin[1] < y0 / 1000
+    free = np.count_nonzero(m.occupancy() == 0) * m.resolution ** 2
+    assert free == pytest.approx(fz.crisp_geometry.area / 1e6, rel=0.05)
+
+
 @pytest.mark.reallog
 def test_intel_ros_export_free_area_within_5_percent(tmp_path):
     fuzzy = build_intel(log_path("intel"), tmp_path / "intel.json")

@@ -53,6 +53,7 @@ UNKNOWN_GREY = 205
 OCCUPIED_GREY = 0
 OCCUPIED_STEPS = 88
 _UNIT_QUANTUM = {"m": 1e-3, "cm": 0.1, "mm": 1.0}
+METRES_PER_UNIT = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 #: refuse rasters larger than this many cells (a too fine --resolution over a large map)
 MAX_CELLS = 40_000_000
 
@@ -229,12 +230,23 @@ def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") ->
                             float(resolution), (float(ox), float(oy)), method, crisp.unit)
 
 
+def metres_per_unit(unit: str) -> float | None:
+    """How many metres one map unit is (ROS wants metres), or None for a unit we do not know."""
+    return METRES_PER_UNIT.get(unit)
+
+
 def write_ros(directory: str | os.PathLike, name: str, raster: MembershipRaster) -> tuple[Path, Path]:
-    """Write DIR/NAME.yaml and DIR/NAME.pgm (trinary mode, map_saver's thresholds). Returns both paths."""
+    """Write DIR/NAME.yaml and DIR/NAME.pgm (trinary mode, map_saver's thresholds). Returns both paths.
+
+    map_server reads resolution and origin in metres: a map in cm or mm is converted; a map in a
+    unit we do not know keeps its unit (and the caller should say so).
+    """
+    scale = metres_per_unit(raster.unit) or 1.0
     comment = (f"fuzzybrep fuzzy B-rep map, {raster.resolution:g} {raster.unit}/pixel, mu by {raster.method}\n"
                f"grey: free {FREE_GREY}-round({FREE_STEPS}*mu), unknown {UNKNOWN_GREY}, "
                f"occupied {OCCUPIED_GREY}+round({OCCUPIED_STEPS}*mu)")
-    return write_ros_map(Path(directory) / f"{name}.yaml", raster.image, raster.resolution, (*raster.origin, 0.0),
+    origin = (round(raster.origin[0] * scale, 12), round(raster.origin[1] * scale, 12), 0.0)
+    return write_ros_map(Path(directory) / f"{name}.yaml", raster.image, round(raster.resolution * scale, 12), origin,
                          occupied_thresh=OCCUPIED_THRESH, free_thresh=FREE_THRESH, negate=False, mode="trinary",
                          comment=comment)
 
@@ -242,5 +254,5 @@ def write_ros(directory: str | os.PathLike, name: str, raster: MembershipRaster)
 __all__ = [
     "DEFAULT_ALPHAS", "FREE_GREY", "FREE_STEPS", "FREE_THRESH", "MembershipRaster", "OCCUPIED_GREY", "OCCUPIED_STEPS",
     "OCCUPIED_THRESH", "UNKNOWN_GREY", "alpha_cut_features", "coordinate_quantum", "crisp_features", "feature",
-    "feature_collection", "grey_levels", "membership_raster", "mu_from_grey", "write_geojson", "write_ros",
+    "feature_collection", "grey_levels", "membership_raster", "metres_per_unit", "mu_from_grey", "write_geojson", "write_ros",
 ]

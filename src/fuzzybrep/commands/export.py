@@ -47,7 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="α-cuts for --geojson and --svg: sweep (the thesis's, default) or exact "
                         "(Extension principle)")
     p.add_argument("--resolution", type=_resolution, default=0.05,
-                   help="--ros: cell side in the map's unit (default 0.05)")
+                   help="--ros: cell side in metres (default 0.05; in the map's unit if it is not m, cm or mm)")
     p.add_argument("--name", type=_name, default=None, help="--ros: base name of the files (default: the map file's name)")
     p.add_argument("--ros-method", choices=("exact", "sweep"), default="exact",
                    help="--ros: μ of the grey levels: exact (distance to the crisp boundary, default) or sweep")
@@ -55,7 +55,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import MapFileError
-    from ..export import DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, write_geojson, write_ros
+    from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
+                          write_geojson, write_ros)
     from ..fuzzy import FuzzyBRepMap
     from ..mapfile import read_map, write_atomic
     from ..svg import svg_document
@@ -79,14 +80,20 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.svg}: {n} bytes")
     if args.ros:
         name = args.name or Path(args.map).stem
+        # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
+        scale = metres_per_unit(fuzzy.unit)
+        ros_unit = "m" if scale else fuzzy.unit
         try:
-            raster = membership_raster(fuzzy, args.resolution, args.ros_method)
+            raster = membership_raster(fuzzy, args.resolution / (scale or 1.0), args.ros_method)
         except ValueError as e:
             raise MapFileError(Path(args.ros) / f"{name}.yaml", str(e)) from None
         yaml_path, pgm_path = write_ros(args.ros, name, raster)
         h, w = raster.shape
         crisp_area = fuzzy.crisp_geometry.area
-        print(f"{yaml_path}, {pgm_path}: {w} × {h} cells of {args.resolution:g} {fuzzy.unit}, free area "
+        print(f"{yaml_path}, {pgm_path}: {w} × {h} cells of {args.resolution:g} {ros_unit}, free area "
               f"{raster.free_area():.6g} {fuzzy.unit}² (crisp map {crisp_area:.6g}), μ by {args.ros_method}")
+        if not scale:
+            print(f"note: the map's unit {fuzzy.unit!r} is not m, cm or mm: the YAML's resolution and origin are "
+                  f"in {fuzzy.unit!r}, not in metres as ROS expects", file=sys.stderr)
     print(f"{time.perf_counter() - t0:.2f} s")
     return 0
