@@ -16,6 +16,7 @@ from .errors import FuzzyBrepError
 COMMANDS = [
     "build",
     "export",
+    "view",
     "fuzzify",
     "tables",
     "alpha_cut",

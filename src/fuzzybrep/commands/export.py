@@ -1,21 +1,99 @@
-"""fuzzybrep export: a map file out to other tools."""
+"""fuzzybrep export: a map file out to other tools (GeoJSON, ROS map_server, SVG)."""
 
 from __future__ import annotations
 
+import argparse
+import re
+import sys
+import time
+from pathlib import Path
+
+from .alpha_cut import _alpha
+from ._maps import add_map_argument
+
 NAME = "export"
-HELP = "export a map to GeoJSON"
+HELP = "export a map: α-cuts as GeoJSON, a ROS map_server pair (PGM + YAML), an SVG picture"
 
 
-def add_arguments(p) -> None:
-    p.add_argument("map", help="map file (JSON) written by fuzzybrep build")
-    p.add_argument("--geojson", required=True, help="GeoJSON file to write: a FeatureCollection, features with role 'crisp'")
+def _resolution(s: str) -> float:
+    try:
+        r = float(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"resolution must be a number, got {s!r}") from None
+    if not r > 0 or r == float("inf"):
+        raise argparse.ArgumentTypeError(f"resolution must be positive, got {s}")
+    return r
 
 
-def run(args) -> int:
-    from ..export import crisp_features, write_geojson
-    from ..mapfile import read_map
+def _name(s: str) -> str:
+    if not re.fullmatch(r"[A-Za-z0-9_.-]+", s) or s in (".", ".."):
+        raise argparse.ArgumentTypeError(f"name must be a plain file name (letters, digits, _ . -), got {s!r}")
+    return s
 
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_map_argument(p)
+    out = p.add_argument_group("outputs (at least one)")
+    out.add_argument("--geojson", metavar="OUT.geojson",
+                     help="FeatureCollection: the crisp map (role crisp) and per α an inner and an outer feature")
+    out.add_argument("--ros", metavar="DIR",
+                     help="ROS map_server pair DIR/NAME.pgm + DIR/NAME.yaml (trinary; grey levels carry μ, "
+                          "see docs/export.md)")
+    out.add_argument("--svg", metavar="OUT.svg",
+                     help="standalone SVG picture: crisp map, support band, α-cut outlines")
+    p.add_argument("--alpha", type=_alpha, action="append", metavar="A",
+                   help="α level for --geojson and --svg; repeat for several (default 0 0.25 0.5 0.75 1)")
+    p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
+                   help="α-cuts for --geojson and --svg: sweep (the thesis's, default) or exact "
+                        "(Extension principle)")
+    p.add_argument("--resolution", type=_resolution, default=0.05,
+                   help="--ros: cell side in metres (default 0.05; in the map's unit if it is not m, cm or mm)")
+    p.add_argument("--name", type=_name, default=None, help="--ros: base name of the files (default: the map file's name)")
+    p.add_argument("--ros-method", choices=("exact", "sweep"), default="exact",
+                   help="--ros: μ of the grey levels: exact (distance to the crisp boundary, default) or sweep")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import MapFileError
+    from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
+                          write_geojson, write_ros)
+    from ..fuzzy import FuzzyBRepMap
+    from ..mapfile import read_map, write_atomic
+    from ..svg import svg_document
+
+    if not (args.geojson or args.ros or args.svg):
+        print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg", file=sys.stderr)
+        return 2
+    t0 = time.perf_counter()
     m = read_map(args.map)
-    n = write_geojson(args.geojson, crisp_features(m.crisp))
-    print(f"{args.geojson}: {n} bytes ({m.crisp.n_vertices} vertices, {m.crisp.n_holes} holes)")
+    fuzzy = FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
+    alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
+    cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
+    if args.geojson:
+        n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
+        print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
+              f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
+    if args.svg:
+        support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
+        text = svg_document(fuzzy, cuts, support, title=Path(args.map).name)
+        n = write_atomic(args.svg, text.encode("utf-8"))
+        print(f"{args.svg}: {n} bytes")
+    if args.ros:
+        name = args.name or Path(args.map).stem
+        # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
+        scale = metres_per_unit(fuzzy.unit)
+        ros_unit = "m" if scale else fuzzy.unit
+        try:
+            raster = membership_raster(fuzzy, args.resolution / (scale or 1.0), args.ros_method)
+        except ValueError as e:
+            raise MapFileError(Path(args.ros) / f"{name}.yaml", str(e)) from None
+        yaml_path, pgm_path = write_ros(args.ros, name, raster)
+        h, w = raster.shape
+        crisp_area = fuzzy.crisp_geometry.area
+        print(f"{yaml_path}, {pgm_path}: {w} × {h} cells of {args.resolution:g} {ros_unit}, free area "
+              f"{raster.free_area():.6g} {fuzzy.unit}² (crisp map {crisp_area:.6g}), μ by {args.ros_method}")
+        if not scale:
+            print(f"note: the map's unit {fuzzy.unit!r} is not m, cm or mm: the YAML's resolution and origin are "
+                  f"in {fuzzy.unit!r}, not in metres as ROS expects", file=sys.stderr)
+    print(f"{time.perf_counter() - t0:.2f} s")
     return 0

@@ -1,0 +1,48 @@
+"""fuzzybrep view: one self-contained HTML page to look at a map (α slider, μ under the cursor)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from ._maps import add_map_argument
+
+NAME = "view"
+HELP = "write one self-contained HTML page showing the map, its α-cuts, μ under the cursor, poses and a path"
+
+
+def _levels(s: str) -> int:
+    try:
+        n = int(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--alphas must be a whole number, got {s!r}") from None
+    if not 2 <= n <= 1001:
+        raise argparse.ArgumentTypeError(f"--alphas must be 2 to 1001, got {n}")
+    return n
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_map_argument(p)
+    p.add_argument("--html", required=True, metavar="OUT.html", help="page to write (no network needed to open it)")
+    p.add_argument("--path", metavar="PATH.json", help='planned path to draw: {"path": [[x, y], ...]}')
+    p.add_argument("--alphas", type=_levels, default=101, metavar="N",
+                   help="positions of the α slider from 0 to 1 (default 101: steps of 0.01)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..fuzzy import FuzzyBRepMap
+    from ..mapfile import read_map
+    from ..viewer import read_path, write_html
+
+    t0 = time.perf_counter()
+    m = read_map(args.map)
+    fuzzy = FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
+    path = read_path(args.path) if args.path else None
+    n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas)
+    extras = [f"{len(m.poses)} poses"] if m.poses is not None else []
+    if path is not None:
+        extras.append(f"a path of {len(path)} points")
+    print(f"{args.html}: {n} bytes ({fuzzy.crisp.n_vertices} vertices, {fuzzy.crisp.n_holes} holes"
+          f"{', ' + ', '.join(extras) if extras else ''}), {time.perf_counter() - t0:.2f} s")
+    return 0

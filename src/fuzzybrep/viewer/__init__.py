@@ -1,0 +1,195 @@
+"""One self-contained HTML file to look at a fuzzy B-rep map in a browser (``fuzzybrep view``).
+
+The page carries the map as a JSON payload (``payload``) and draws it on a <canvas> with its own
+script (``viewer.js`` beside this file): no library, no network. The payload holds what the
+thesis stores, not pictures: per vertex the crisp vertex (X, Y) and the direction (T, V) of its
+parametric line (Table 4.1; U = X − T, W = Y − V), per edge its kind, per vertex its FM index, and
+per membership function its d_in(α), d_out(α) sampled at ``levels`` + 1 values of α. The script
+reads an α-cut from the lines in O(n), as the thesis does, and draws it as the region the
+α-cut's edges sweep (docs/viewer.md); ``swept_cut`` is the same construction in Shapely, the
+reference the browser tests compare the page with. μ under the cursor is the sweep's μ
+(``FuzzyBRepMap.membership(points, "sweep")``) and the exact μ, both computed in the page.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from ..errors import MapFileError
+from ..export import coordinate_quantum
+from ..mapfile import write_atomic
+from ..sweep import polygonal
+
+FORMAT = "fuzzybrep-viewer"
+VERSION = 1
+#: default slider positions: α = 0, 0.01, ..., 1
+DEFAULT_SLIDER_LEVELS = 101
+#: d(α) is sampled at least this finely, so that μ read back from it is good to ~1e-3
+_MIN_TABLE_STEPS = 1000
+
+
+def read_path(path: str | os.PathLike) -> np.ndarray:
+    """(k, 2) planned path from a JSON file ``{"path": [[x, y], ...]}`` (what ``fuzzybrep plan`` writes)."""
+    path = Path(path)
+    try:
+        obj = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
+    except json.JSONDecodeError as e:
+        raise MapFileError(path, f"not valid JSON ({e})") from None
+    pts = obj.get("path") if isinstance(obj, dict) else None
+    if not isinstance(pts, list):
+        raise MapFileError(path, 'expected an object with a "path" list of [x, y] points')
+    out = np.empty((len(pts), 2))
+    for k, p in enumerate(pts):
+        if not (isinstance(p, (list, tuple)) and len(p) >= 2 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in p[:2])):
+            raise MapFileError(path, f"path point {k + 1} is not [x, y] numbers: {p!r}")
+        out[k] = p[0], p[1]
+    if not np.isfinite(out).all():
+        raise MapFileError(path, f"path point {int(np.argmax(~np.isfinite(out).all(axis=1))) + 1} is not finite")
+    return out
+
+
+def _table_steps(slider_levels: int) -> int:
+    """A multiple of the slider's steps of at least 1000: every slider position is a sample."""
+    steps = slider_levels - 1
+    return steps * math.ceil(_MIN_TABLE_STEPS / steps)
+
+
+def _deltas(v: np.ndarray, starts: np.ndarray) -> list[int]:
+    """Integers delta-coded within runs that begin at ``starts`` (the first of a run absolute)."""
+    d = np.diff(v, prepend=0)
+    d[starts] = v[starts]
+    return d.tolist()
+
+
+def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = None, *, name: str = "map",
+            slider_levels: int = DEFAULT_SLIDER_LEVELS) -> dict:
+    """The JSON the page draws from. Coordinates are integers in units of ``q`` (a millimetre
+    for maps in metres), T and V in q/10, headings in milliradians; vertices and poses are
+    delta-coded (within each ring, along the trajectory)."""
+    if not (isinstance(slider_levels, int) and 2 <= slider_levels <= 1001):
+        raise ValueError(f"the α slider needs 2 to 1001 levels, got {slider_levels!r}")
+    crisp, table = fuzzy.crisp, fuzzy.table
+    x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
+    q = coordinate_quantum(crisp.unit, max(x1 - x0, y1 - y0))
+    rings = crisp.rings
+    sizes = np.array([len(r) for r in rings])
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    V = np.vstack([ln.vertices for ln in fuzzy.lines])
+    TV = np.vstack([np.column_stack((ln.T, ln.V)) for ln in fuzzy.lines])
+    xi = np.rint(V / q).astype(np.int64)
+    ti = np.rint(TV / (q / 10)).astype(np.int64)
+    fm = np.concatenate([r.fm for r in rings])
+    steps = _table_steps(slider_levels)
+    alphas = np.arange(steps + 1) / steps
+    dec = max(0, -math.floor(math.log10(q / 100) + 1e-9))
+    functions = []
+    for index, f in table:
+        functions.append({
+            "index": index,
+            "label": f.describe() if hasattr(f, "describe") else f.kind,
+            "support_in": f.support_in,
+            "support_out": f.support_out,
+            "d_in": np.round(np.asarray(f.d_in(alphas), float), dec).tolist(),
+            "d_out": np.round(np.asarray(f.d_out(alphas), float), dec).tolist(),
+        })
+    region = np.repeat(np.arange(len(crisp.regions)), [len(r.rings) for r in crisp.regions])
+    shell = np.concatenate([[1] + [0] * len(r.holes) for r in crisp.regions])
+    out = {
+        "format": FORMAT,
+        "version": VERSION,
+        "name": name,
+        "unit": crisp.unit,
+        "q": q,
+        "rings": {"size": sizes.tolist(), "region": region.tolist(), "shell": shell.tolist()},
+        "x": _deltas(xi[:, 0], starts),
+        "y": _deltas(xi[:, 1], starts),
+        "t": ti[:, 0].tolist(),
+        "v": ti[:, 1].tolist(),
+        "kind": "".join(map(str, np.concatenate([r.kinds for r in rings]).tolist())),
+        "fm": int(fm[0]) if (fm == fm[0]).all() else fm.tolist(),
+        "functions": functions,
+        "levels": steps,
+        "slider": slider_levels,
+        "poses": None,
+        "path": None,
+        "stats": {"vertices": crisp.n_vertices, "holes": crisp.n_holes, "regions": len(crisp.regions),
+                  "area": round(float(fuzzy.crisp_geometry.area), 6)},
+    }
+    if poses is not None and len(poses):
+        p = np.asarray(poses, dtype=np.float64)
+        pi = np.rint(p[:, :2] / q).astype(np.int64)
+        h = np.rint(np.mod(p[:, 2] + np.pi, 2 * np.pi) * 1000 - np.pi * 1000).astype(np.int64)
+        out["poses"] = {"x": _deltas(pi[:, 0], np.array([0])), "y": _deltas(pi[:, 1], np.array([0])),
+                        "heading": h.tolist()}
+    if path is not None and len(path):
+        pp = np.rint(np.asarray(path, dtype=np.float64)[:, :2] / q).astype(np.int64)
+        out["path"] = {"x": pp[:, 0].tolist(), "y": pp[:, 1].tolist()}
+    return out
+
+
+def _asset(name: str) -> str:
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
+def html_document(data: dict, title: str | None = None) -> str:
+    """The page: template, style, script and payload in one file."""
+    from xml.sax.saxutils import escape
+
+    # "</" inside a script element would end it; "<\/" is the same JSON string
+    blob = json.dumps(data, separators=(",", ":"), ensure_ascii=False).replace("</", "<\\/")
+    page = _asset("page.html")
+    for key, value in (("{{TITLE}}", escape(title or f"fuzzy B-rep map — {data.get('name', 'map')}")),
+                       ("{{CSS}}", _asset("viewer.css")), ("{{JS}}", _asset("viewer.js")), ("{{DATA}}", blob)):
+        page = page.replace(key, value)
+    return page
+
+
+def write_html(out: str | os.PathLike, fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = None, *,
+               name: str = "map", slider_levels: int = DEFAULT_SLIDER_LEVELS) -> int:
+    """Write the viewer page atomically; returns bytes written."""
+    data = payload(fuzzy, poses, path, name=name, slider_levels=slider_levels)
+    return write_atomic(out, html_document(data).encode("utf-8"))
+
+
+def band_quads(fuzzy, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """(free, obstacle): (m, 4, 2) corners of every band at α — crisp edge and its α-cut edge.
+
+    ``free`` are the bands on the free side (the principal polygon's IN bands, the holes' OUT
+    bands), ``obstacle`` the others. The page draws the convex hull of each.
+    """
+    V = np.vstack([r.vertices for r in fuzzy.crisp.rings])
+    nxt = np.concatenate([np.roll(np.arange(len(r)), -1) for r in fuzzy.crisp.rings])
+    nxt += np.repeat(np.cumsum([0] + [len(r) for r in fuzzy.crisp.rings][:-1]), [len(r) for r in fuzzy.crisp.rings])
+    # shrink: the principal polygon's IN offset and the holes' OUT ones, i.e. the free side
+    shrink, grow = fuzzy.offset_vertices(alpha)
+    free = np.stack((V, V[nxt], shrink[nxt], shrink), axis=1)
+    obstacle = np.stack((V, V[nxt], grow[nxt], grow), axis=1)
+    return free, obstacle
+
+
+def swept_cut(fuzzy, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
+    """(inner, outer) of the α-cut as the page draws them: the crisp free space minus the hulls
+    of the free-side bands, and plus the hulls of the other bands (docs/viewer.md).
+
+    Equal to ``fuzzy.alpha_cut(alpha)`` up to slivers, since a proper polygon is its crisp
+    polygon minus (IN) or plus (OUT) the region its edges swept (docs/fuzzy.md).
+    """
+    free, obstacle = band_quads(fuzzy, alpha)
+    crisp = fuzzy.crisp_geometry
+    hull = lambda q: shapely.union_all(shapely.convex_hull(shapely.multipoints(q)))  # noqa: E731
+    inner = polygonal(shapely.difference(crisp, hull(free)))
+    outer = polygonal(shapely.union(crisp, hull(obstacle)))
+    return inner, outer
+
+
+__all__ = ["DEFAULT_SLIDER_LEVELS", "band_quads", "html_document", "payload", "read_path", "swept_cut", "write_html"]

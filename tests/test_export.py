@@ -1,0 +1,229 @@
+"""fuzzybrep export: the ROS map_server pair, GeoJSON α-cuts and the SVG picture."""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+import shapely
+
+from _floor import TME, build_intel, floor_map, floor_poses
+from conftest import log_path
+from fuzzybrep.cli import main
+from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
+                              grey_levels, membership_raster, mu_from_grey, write_ros)
+from fuzzybrep.rosmap import RosMap, read_ros_map
+
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def run(*argv) -> int:
+    return main([str(a) for a in argv])
+
+
+@pytest.fixture(scope="module")
+def floor():
+    return floor_map()
+
+
+@pytest.fixture
+def floor_file(floor, tmp_path):
+    path = tmp_path / "floor.json"
+    floor.save(path, poses=floor_poses())
+    return path
+
+
+# ------------------------------------------------------------------------- ROS grey levels
+
+
+def test_every_grey_level_keeps_its_class_in_map_server_trinary_mode():
+    mu = np.linspace(0, 1, 1001)
+    n = len(mu)
+    free = grey_levels(mu, np.ones(n, bool), np.zeros(n, bool))
+    occupied = grey_levels(mu, np.zeros(n, bool), np.ones(n, bool))
+    unknown = grey_levels(mu, np.zeros(n, bool), np.zeros(n, bool))
+    assert free.min() == FREE_GREY - FREE_STEPS == 206 and free.max() == FREE_GREY == 254
+    assert occupied.min() == 0 and occupied.max() == OCCUPIED_STEPS == 88
+    assert (unknown == UNKNOWN_GREY).all()
+    img = np.stack((free, occupied, unknown))
+    occ = RosMap(img, 0.05, (0.0, 0.0, 0.0), occupied_thresh=OCCUPIED_THRESH, free_thresh=FREE_THRESH).occupancy()[::-1]
+    assert (occ[0] == 0).all() and (occ[1] == 100).all() and (occ[2] == -1).all()
+    # μ comes back from the shade to the grey levels' precision
+    np.testing.assert_allclose(mu_from_grey(free), mu, atol=0.5 / FREE_STEPS + 1e-12)
+    np.testing.assert_allclose(mu_from_grey(occupied), mu, atol=0.5 / OCCUPIED_STEPS + 1e-12)
+    assert np.isnan(mu_from_grey(unknown)).all()
+
+
+def test_raster_classes_and_membership_on_the_floor(floor):
+    r = membership_raster(floor, 0.05, "sweep")
+    h, w = r.shape
+    ox, oy = r.origin
+    cx = ox + (np.arange(w) + 0.5) * 0.05
+    cy = oy + (np.arange(h)[::-1] + 0.5) * 0.05  # row 0 at the top
+    X, Y = np.meshgrid(cx, cy)
+    # classes at cell centres: free = crisp free space; a hole is occupied; beyond the frontier unknown
+    np.testing.assert_array_equal(r.free, shapely.contains_xy(floor.crisp_geometry, X, Y))
+    at = lambda x, y: (int(np.argmin(np.abs(cy - y))), int(np.argmin(np.abs(cx - x))))  # noqa: E731
+    assert r.occupied[at(1.4, 1.1)] and r.image[at(1.4, 1.1)] == 0  # inside the desk, beyond its support
+    assert r.image[at(1.5, 6.1)] == UNKNOWN_GREY  # just beyond the frontier edge at y = 6
+    assert r.occupied[at(0.5, -0.05)] and 0 < r.image[at(0.5, -0.05)] <= OCCUPIED_STEPS  # wall band, outside
+    assert r.image[at(0.5, -1.0)] == UNKNOWN_GREY  # farther out nothing was seen
+    assert r.image[at(2.0, 2.0)] == FREE_GREY  # far from every boundary
+    # μ is the map's μ at every cell centre (the raster evaluates it only near the boundary)
+    mu = floor.membership(np.column_stack((X.ravel(), Y.ravel())), "sweep").reshape(X.shape)
+    np.testing.assert_allclose(r.mu, mu, atol=1e-12)
+    known = r.free | r.occupied
+    np.testing.assert_allclose(mu_from_grey(r.image)[known], mu[known], atol=0.5 / FREE_STEPS + 1e-9)
+    assert 0.9 < mu.max() <= 1 and (mu[~known & (mu > 0)] > 0).any()
+    assert (Y[~known & (mu > 0)] > 6).all()  # the unknown band with μ > 0 is the frontier's
+
+
+def test_ros_pair_round_trips_through_standard_readers(floor, tmp_path):
+    from PIL import Image
+    from ruamel.yaml import YAML
+
+    r = membership_raster(floor, 0.05, "exact")
+    yaml_path, pgm_path = write_ros(tmp_path / "ros", "floor", r)
+    assert yaml_path.name == "floor.yaml" and pgm_path.name == "floor.pgm"
+    # map_server's YAML keys, read by a general YAML reader
+    y = YAML(typ="safe").load(yaml_path.read_text())
+    assert y["image"] == "floor.pgm" and y["mode"] == "trinary" and y["negate"] == 0
+    assert y["resolution"] == 0.05 and y["occupied_thresh"] == 0.65 and y["free_thresh"] == 0.196
+    assert y["origin"] == [r.origin[0], r.origin[1], 0.0]
+    # the PGM, read by Pillow: 8-bit grey, row 0 at the top
+    with Image.open(pgm_path) as im:
+        assert im.mode == "L" and im.size == (r.shape[1], r.shape[0])
+        np.testing.assert_array_equal(np.asarray(im), r.image)
+    # and as map_server reads it
+    m = read_ros_map(yaml_path)
+    np.testing.assert_array_equal(m.image, r.image)
+    occ = m.occupancy()
+    free_area = np.count_nonzero(occ == 0) * m.resolution ** 2
+    assert free_area == pytest.approx(floor.crisp_geometry.area, rel=0.05)
+    assert free_area == pytest.approx(r.free_area())
+    assert np.count_nonzero(occ == 100) > 0 and np.count_nonzero(occ == -1) > 0
+
+
+def test_export_command_ros_free_area_matches_the_crisp_map(floor, floor_file, tmp_path, capsys):
+    assert run("export", floor_file, "--ros", tmp_path / "out", "--resolution", 0.02, "--name", "f") == 0
+    out = capsys.readouterr().out
+    assert "free area" in out and "μ by exact" in out
+    m = read_ros_map(tmp_path / "out" / "f.yaml")
+    free = np.count_nonzero(m.occupancy() == 0) * m.resolution ** 2
+    assert free == pytest.approx(floor.crisp_geometry.area, rel=0.01)
+
+
+def test_ros_export_of_a_map_in_millimetres_is_in_metres(tmp_path, capsys):
+    from _fuzzy_shapes import thesis_map
+    from fuzzybrep.fuzzy import fuzzify
+
+    fz = fuzzify(thesis_map())  # Figure 4.10 in mm, TME 199.13 mm
+    fz.save(tmp_path / "e1.json")
+    assert run("export", tmp_path / "e1.json", "--ros", tmp_path, "--resolution", 0.02) == 0
+    assert "cells of 0.02 m" in capsys.readouterr().out
+    m = read_ros_map(tmp_path / "e1.yaml")
+    assert m.resolution == 0.02
+    x0, y0, _, _ = fz.crisp_geometry.bounds  # 300 mm
+    assert -0.6 < m.origin[0] < x0 / 1000 and -0.6 < m.origin[1] < y0 / 1000
+    free = np.count_nonzero(m.occupancy() == 0) * m.resolution ** 2
+    assert free == pytest.approx(fz.crisp_geometry.area / 1e6, rel=0.05)
+
+
+@pytest.mark.reallog
+def test_intel_ros_export_free_area_within_5_percent(tmp_path):
+    fuzzy = build_intel(log_path("intel"), tmp_path / "intel.json")
+    assert run("export", tmp_path / "intel.json", "--ros", tmp_path / "ros") == 0
+    m = read_ros_map(tmp_path / "ros" / "intel.yaml")
+    occ = m.occupancy()
+    free = np.count_nonzero(occ == 0) * m.resolution ** 2
+    assert free == pytest.approx(fuzzy.crisp_geometry.area, rel=0.05)
+    assert m.resolution == 0.05 and m.mode == "trinary"
+    # walls all round the lab, and the unexplored outside
+    assert np.count_nonzero(occ == 100) > 10_000 and np.count_nonzero(occ == -1) > 10_000
+    shade = np.count_nonzero((m.image > UNKNOWN_GREY) & (m.image < FREE_GREY))
+    assert shade > 10_000  # the inner band is graded, not plain white
+
+
+def test_raster_refuses_bad_resolutions(floor):
+    with pytest.raises(ValueError, match="positive"):
+        membership_raster(floor, 0.0)
+    with pytest.raises(ValueError, match="too large"):
+        membership_raster(floor, 1e-4)
+
+
+# ------------------------------------------------------------------------- GeoJSON
+
+
+def test_geojson_has_the_crisp_map_and_inner_and_outer_per_default_level(floor, floor_file, tmp_path):
+    out = tmp_path / "cuts.geojson"
+    assert run("export", floor_file, "--geojson", out) == 0
+    fc = json.loads(out.read_text())
+    feats = fc["features"]
+    assert fc["type"] == "FeatureCollection"
+    assert [f["properties"]["role"] for f in feats] == ["crisp"] + ["inner", "outer"] * 5
+    assert [f["properties"]["alpha"] for f in feats[1::2]] == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert all(f["properties"]["unit"] == "m" for f in feats)
+    geoms = [shapely.geometry.shape(f["geometry"]) for f in feats]
+    crisp = geoms[0]
+    assert crisp.area == pytest.approx(floor.crisp_geometry.area)
+    inner, outer = geoms[1::2], geoms[2::2]
+    for a, b in zip(inner, inner[1:]):  # inner cuts grow with α, outer ones shrink
+        assert a.area <= b.area + 1e-9
+    for a, b in zip(outer, outer[1:]):
+        assert a.area >= b.area - 1e-9
+    assert inner[-1].area == pytest.approx(crisp.area) and outer[-1].area == pytest.approx(crisp.area)
+
+
+def test_geojson_levels_and_method_from_the_command_line(floor_file, tmp_path):
+    out = tmp_path / "cuts.geojson"
+    assert run("export", floor_file, "--geojson", out, "--alpha", 0.5, "--alpha", 0.1, "--method", "exact") == 0
+    feats = json.loads(out.read_text())["features"]
+    assert [(f["properties"]["role"], f["properties"]["alpha"]) for f in feats] == [
+        ("crisp", 1.0), ("inner", 0.1), ("outer", 0.1), ("inner", 0.5), ("outer", 0.5)]
+    assert feats[1]["properties"]["method"] == "exact"
+
+
+# ------------------------------------------------------------------------- SVG
+
+
+def test_svg_is_valid_xml_in_map_units_with_y_flipped(floor, floor_file, tmp_path):
+    out = tmp_path / "floor.svg"
+    assert run("export", floor_file, "--svg", out, "--alpha", 0, "--alpha", 0.5, "--alpha", 1) == 0
+    root = ET.parse(out).getroot()
+    assert root.tag == f"{SVG}svg"
+    vx, vy, vw, vh = map(float, root.get("viewBox").split())
+    x0, y0, x1, y1 = floor.crisp_geometry.bounds
+    # the view holds the outer support; y is flipped, so its top is −(largest y)
+    assert vx < x0 - TME and vx + vw > x1 + TME
+    assert vy < -(y1 + TME) and vy + vh > -(y0 - TME)
+    groups = {g.get("id"): g for g in root.iter(f"{SVG}g")}
+    assert set(groups) == {"support", "alpha-cuts", "crisp"}
+    assert [p.get("class") for p in groups["support"]] == ["support", "free"]
+    cuts = [(p.get("class"), p.get("data-alpha")) for p in groups["alpha-cuts"]]
+    assert cuts == [("cut inner", "0"), ("cut outer", "0"), ("cut inner", "0.5"), ("cut outer", "0.5")]
+    assert [p.get("class") for p in groups["crisp"]] == ["crisp obstacle", "crisp frontier"]
+    # the crisp outline, read back, is the map mirrored in y, to the millimetre
+    d = groups["crisp"][0].get("d")
+    rings = [np.array([[float(v) for v in pt.split()] for pt in ring.strip("Z").split("L")])
+             for ring in d.lstrip("M").split("M")]
+    poly = shapely.Polygon(rings[0] * [1, -1], [r * [1, -1] for r in rings[1:]])
+    assert poly.area == pytest.approx(floor.crisp_geometry.area, rel=1e-4)
+    assert "matplotlib" not in out.read_text()
+
+
+def test_export_needs_an_output(floor_file, capsys):
+    assert run("export", floor_file) == 2
+    assert "at least one of --geojson, --ros, --svg" in capsys.readouterr().err
+
+
+def test_export_refuses_bad_options(floor_file, tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        run("export", floor_file, "--ros", tmp_path, "--resolution", "-1")
+    assert "resolution must be positive" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        run("export", floor_file, "--ros", tmp_path, "--name", "../x")
+    assert "plain file name" in capsys.readouterr().err
+    assert run("export", floor_file, "--ros", tmp_path, "--resolution", "0.00001") == 2
+    assert "too large" in capsys.readouterr().err

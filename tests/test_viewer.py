@@ -1,0 +1,341 @@
+"""fuzzybrep view: the self-contained page, its payload, and the page itself in headless Chromium."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import HealthCheck, given, settings
+
+from _browser import chromium_driver
+from _floor import FLOOR_PATH, build_intel, floor_map, floor_poses
+from _fuzzy_shapes import crisp_maps, dumbbell, thesis_map
+from conftest import log_path
+from fuzzybrep.brep import BRepMap
+from fuzzybrep.cli import main
+from fuzzybrep.errors import MapFileError
+from fuzzybrep.fuzzy import fuzzify
+from fuzzybrep.viewer import band_quads, html_document, payload, read_path, swept_cut, write_html
+
+
+def run(*argv) -> int:
+    return main([str(a) for a in argv])
+
+
+@pytest.fixture(scope="module")
+def floor():
+    return floor_map()
+
+
+@pytest.fixture(scope="module")
+def floor_page(floor, tmp_path_factory):
+    out = tmp_path_factory.mktemp("view") / "floor.html"
+    write_html(out, floor, floor_poses(), np.array(FLOOR_PATH), name="floor.json")
+    return out
+
+
+def embedded(html: str) -> dict:
+    m = re.search(r'<script type="application/json" id="fuzzybrep-data">(.*?)</script>', html, re.S)
+    return json.loads(m.group(1))
+
+
+def decode(data: dict) -> dict:
+    """The payload decoded as viewer.js decodes it."""
+    q = data["q"]
+    sizes = data["rings"]["size"]
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    x, y = np.asarray(data["x"]), np.asarray(data["y"])
+    ring = np.repeat(np.arange(len(sizes)), sizes)
+
+    def undelta(v):
+        c = np.cumsum(v)
+        return c - np.repeat(np.concatenate(([0], c[starts[1:] - 1])), sizes)
+
+    return {"xy": np.column_stack((undelta(x), undelta(y))) * q, "tv": np.column_stack((data["t"], data["v"])) * q / 10,
+            "ring": ring}
+
+
+# ------------------------------------------------------------------------- the page, offline
+
+
+def test_page_is_one_self_contained_file(floor_page):
+    html = floor_page.read_text(encoding="utf-8")
+    assert not re.search(r"https?://", html), "the page must not name any URL (no network here)"
+    assert not re.search(r"<(link|img|iframe)\b", html, re.I)
+    assert not re.search(r"<script[^>]+src=", html, re.I)
+    assert not re.search(r"\b(fetch|XMLHttpRequest|import\s*\(|WebSocket)\b", html)
+    assert html.count("<script") == 2 and "<canvas" in html and 'type="range"' in html
+
+
+def test_payload_holds_the_map_lines_poses_and_path(floor, floor_page):
+    data = embedded(floor_page.read_text(encoding="utf-8"))
+    assert data["format"] == "fuzzybrep-viewer" and data["version"] == 1 and data["unit"] == "m"
+    assert data["q"] == 0.001 and data["name"] == "floor.json"
+    d = decode(data)
+    V = np.vstack([r.vertices for r in floor.crisp.rings])
+    np.testing.assert_allclose(d["xy"], V, atol=1e-9)  # the floor's vertices are on the mm grid
+    TV = np.vstack([np.column_stack((ln.T, ln.V)) for ln in floor.lines])
+    np.testing.assert_allclose(d["tv"], TV, atol=0.5e-4 + 1e-12)
+    assert data["kind"].count("1") == 1 and len(data["kind"]) == len(V)
+    assert data["fm"] == np.concatenate([r.fm for r in floor.crisp.rings]).tolist()
+    assert [f["index"] for f in data["functions"]] == [1, 2]
+    K = data["levels"]
+    assert K % (data["slider"] - 1) == 0 and K >= 1000
+    for f in data["functions"]:
+        fn = floor.table[f["index"]]
+        np.testing.assert_allclose(f["d_in"], fn.d_in(np.arange(K + 1) / K), atol=1e-5)
+        np.testing.assert_allclose(f["d_out"], fn.d_out(np.arange(K + 1) / K), atol=1e-5)
+    poses = floor_poses()
+    px, py = np.cumsum(data["poses"]["x"]) * 0.001, np.cumsum(data["poses"]["y"]) * 0.001
+    np.testing.assert_allclose(np.column_stack((px, py)), poses[:, :2], atol=0.5e-3 + 1e-12)
+    np.testing.assert_allclose(np.asarray(data["poses"]["heading"]) / 1000, poses[:, 2], atol=0.5e-3 + 1e-12)
+    np.testing.assert_allclose(np.column_stack((data["path"]["x"], data["path"]["y"])) * 0.001, FLOOR_PATH)
+    assert data["stats"] == {"vertices": 27, "holes": 3, "regions": 1, "area": pytest.approx(floor.crisp_geometry.area)}
+
+
+def test_script_end_tag_in_a_name_cannot_break_the_page(floor):
+    html = html_document(payload(floor, name="</script><b>x"))
+    assert html.count("</script>") == 2
+    assert embedded(html)["name"] == "</script><b>x"
+
+
+def test_read_path(tmp_path):
+    p = tmp_path / "plan.json"
+    p.write_text(json.dumps({"path": [[0, 0], [1.5, 2]], "alpha": 0.5}))
+    np.testing.assert_array_equal(read_path(p), [[0, 0], [1.5, 2]])
+    for text, match in (("[1, 2]", "path"), ('{"path": [[0, "a"]]}', "point 1"), ("{", "not valid JSON"),
+                        ('{"path": [[0, 1], [2]]}', "point 2")):
+        p.write_text(text)
+        with pytest.raises(MapFileError, match=match):
+            read_path(p)
+    with pytest.raises(MapFileError, match="cannot read"):
+        read_path(tmp_path / "none.json")
+
+
+def test_view_command(floor, tmp_path, capsys):
+    floor.save(tmp_path / "floor.json", poses=floor_poses())
+    (tmp_path / "path.json").write_text(json.dumps({"path": FLOOR_PATH}))
+    out = tmp_path / "floor.html"
+    assert run("view", tmp_path / "floor.json", "--html", out, "--path", tmp_path / "path.json", "--alphas", 21) == 0
+    said = capsys.readouterr().out
+    assert "23 poses" in said and "a path of 4 points" in said
+    data = embedded(out.read_text(encoding="utf-8"))
+    assert data["slider"] == 21 and data["levels"] == 1000
+    (tmp_path / "bad.json").write_text('{"route": []}')
+    assert run("view", tmp_path / "floor.json", "--html", out, "--path", tmp_path / "bad.json") == 2
+    assert "path" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------- what the page draws
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.3, 0.8])
+def test_swept_cut_is_the_alpha_cut(floor, alpha):
+    """The page draws crisp ∓ the band hulls; that is the proper polygon (docs/fuzzy.md)."""
+    for fz in (floor, fuzzify(BRepMap.from_shapely(dumbbell(0.3)), tme=0.2)):
+        cut = fz.alpha_cut(alpha)
+        inner, outer = swept_cut(fz, alpha)
+        band = cut.outer.area - cut.inner.area
+        assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-6 * band
+        assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-6 * band
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(crisp_maps())
+def test_swept_cut_is_the_alpha_cut_on_random_maps(crisp):
+    fz = fuzzify(crisp, tme=0.3)
+    for alpha in (0.0, 0.5):
+        cut = fz.alpha_cut(alpha)
+        inner, outer = swept_cut(fz, alpha)
+        band = max(cut.outer.area - cut.inner.area, 1e-12)
+        assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-5 * band
+        assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-5 * band
+
+
+# ------------------------------------------------------------------------- in Chromium
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    driver = chromium_driver(tmp_path_factory.mktemp("chromium-profile"))
+    yield driver
+    driver.quit()
+
+
+def open_page(browser, path):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    browser.get(path.as_uri())
+    WebDriverWait(browser, 20).until(lambda d: d.execute_script("return !!window.fuzzybrepViewer"))
+    browser.execute_script("return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+
+
+def canvas_pixels(browser) -> str:
+    return browser.execute_script("return document.getElementById('map').toDataURL('image/png')")
+
+
+def keep_screenshot(browser, path, name):
+    """Save the screenshot beside the test's files, and also in $FUZZYBREP_SCREENSHOTS if set."""
+    assert browser.save_screenshot(str(path))
+    assert path.stat().st_size > 10_000
+    keep = os.environ.get("FUZZYBREP_SCREENSHOTS")
+    if keep:
+        os.makedirs(keep, exist_ok=True)
+        shutil.copy(path, os.path.join(keep, name))
+
+
+@pytest.mark.browser
+def test_slider_redraws_the_alpha_cut(browser, floor_page, tmp_path):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    open_page(browser, floor_page)
+    assert browser.execute_script("return window.fuzzybrepViewer.alpha") == 0.5
+    keep_screenshot(browser, tmp_path / "floor.png", "floor.png")
+    before = canvas_pixels(browser)
+    redraws = browser.execute_script("return window.fuzzybrepViewer.redraws")
+    slider = browser.find_element(By.ID, "alpha")
+    slider.send_keys(*[Keys.ARROW_LEFT] * 30)  # real key presses: α 0.5 → 0.2
+    browser.execute_script("return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+    assert browser.find_element(By.ID, "alpha-value").text == "0.20"
+    assert browser.execute_script("return window.fuzzybrepViewer.alpha") == pytest.approx(0.2)
+    assert browser.execute_script("return window.fuzzybrepViewer.redraws") > redraws
+    after = canvas_pixels(browser)
+    assert after != before, "moving the slider must change the drawing"
+    # a script move of the slider (an input event), to α = 1: the band vanishes, another drawing
+    browser.execute_script("const s = document.getElementById('alpha'); s.value = 1;"
+                           "s.dispatchEvent(new Event('input'));"
+                           "return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+    assert canvas_pixels(browser) not in (before, after)
+    keep_screenshot(browser, tmp_path / "floor-alpha1.png", "floor-alpha1.png")
+
+
+@pytest.mark.browser
+def test_status_line_shows_mu_under_the_cursor(browser, floor, floor_page):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    open_page(browser, floor_page)
+    canvas = browser.find_element(By.ID, "map")
+    size = canvas.size
+    status = browser.find_element(By.ID, "status")
+    # a vertex of the crisp boundary (the desk's corner), and a point deep in free space
+    for (x, y), lo, hi in (((0.8, 0.8), 0.9, 1.0), ((3.0, 1.0), 0.0, 0.0)):
+        sx, sy = browser.execute_script(f"return window.fuzzybrepViewer.toScreen({x}, {y})")
+        ActionChains(browser).move_to_element_with_offset(
+            canvas, int(round(sx - size["width"] / 2)), int(round(sy - size["height"] / 2))).perform()
+        text = status.text
+        m = re.search(r"μ = ([0-9.]+) \(sweep\) · exact μ = ([0-9.]+)", text)
+        assert m, text
+        mu, exact = float(m.group(1)), float(m.group(2))
+        assert 0.0 <= mu <= 1.0 and 0.0 <= exact <= 1.0
+        assert lo <= mu <= hi and lo <= exact <= hi, text
+        assert re.search(r"x \d+\.\d{3}, y \d+\.\d{3} m", text)
+
+
+@pytest.mark.browser
+def test_drag_pans_wheel_zooms_double_click_fits(browser, floor_page):
+    import time
+
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    open_page(browser, floor_page)
+    canvas = browser.find_element(By.ID, "map")
+    where = "return window.fuzzybrepViewer.toScreen(5, 2)"
+    x0, y0 = browser.execute_script(where)
+    redraws = browser.execute_script("return window.fuzzybrepViewer.redraws")
+    ActionChains(browser).move_to_element(canvas).click_and_hold().move_by_offset(40, 25).release().perform()
+    x1, y1 = browser.execute_script(where)
+    assert (x1 - x0, y1 - y0) == pytest.approx((40, 25), abs=1)
+    browser.execute_script("const c = document.getElementById('map'), r = c.getBoundingClientRect();"
+                           "c.dispatchEvent(new WheelEvent('wheel', {clientX: r.left + 300, clientY: r.top + 200,"
+                           "deltaY: -300, bubbles: true, cancelable: true}))")
+    x2, y2 = browser.execute_script(where)
+    assert abs(x2 - 300) > 1.5 * abs(x1 - 300)  # zoomed in about (300, 200)
+    time.sleep(0.4)  # the view rests: drawn afresh
+    assert browser.execute_script("return window.fuzzybrepViewer.redraws") > redraws
+    ActionChains(browser).double_click(canvas).perform()
+    assert browser.execute_script(where) == pytest.approx([x0, y0], abs=0.5)
+
+
+@pytest.mark.browser
+def test_page_mu_is_the_map_mu(browser, floor, floor_page):
+    """The page's μ (sweep and exact) against FuzzyBRepMap.membership at points near the walls."""
+    open_page(browser, floor_page)
+    rng = np.random.default_rng(7)
+    V = np.vstack([r.vertices for r in floor.crisp.rings])
+    pts = np.vstack([V[rng.integers(len(V), size=300)] + rng.uniform(-0.3, 0.3, (300, 2)),
+                     rng.uniform([-0.5, -0.5], [10.5, 6.5], (200, 2))])
+    got = np.array(browser.execute_script(
+        "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
+        "return [m.sweep, m.exact]; })", pts.tolist()))
+    sweep, exact = floor.membership(pts, "sweep"), floor.membership(pts, "exact")
+    assert (sweep > 0).sum() > 150 and (exact > 0).sum() > 150
+    # T and V travel at 0.1 mm: μ agrees to a few 1e-4 (a thousand samples of d(α) do the rest)
+    np.testing.assert_allclose(got[:, 1], exact, atol=2e-3)
+    np.testing.assert_allclose(got[:, 0], sweep, atol=2e-3)
+
+
+def two_rooms():
+    """Two pieces of explored space (two regions), one with a hole, in metres."""
+    room = shapely.Polygon([(0, 0), (3, 0), (3, 2), (0, 2)], [[(1, 0.5), (1, 1.2), (2, 1.2), (2, 0.5)]])
+    g = shapely.MultiPolygon([room, shapely.Polygon([(4, 0), (6, 0), (5, 1.5)])])
+    return fuzzify(BRepMap.from_shapely(g), tme=0.25)
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("make, scale", [(two_rooms, 1.0), (lambda: fuzzify(thesis_map()), 1000.0)],
+                         ids=["two-regions", "thesis-mm-clockwise"])
+def test_page_mu_on_other_maps(browser, tmp_path, make, scale):
+    fz = make()
+    write_html(tmp_path / "map.html", fz)
+    open_page(browser, tmp_path / "map.html")
+    rng = np.random.default_rng(3)
+    V = np.vstack([r.vertices for r in fz.crisp.rings])
+    pts = V[rng.integers(len(V), size=200)] + rng.uniform(-0.3, 0.3, (200, 2)) * scale
+    got = np.array(browser.execute_script(
+        "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
+        "return [m.sweep, m.exact]; })", pts.tolist()))
+    sweep, exact = fz.membership(pts, "sweep"), fz.membership(pts, "exact")
+    assert (sweep > 0).sum() > 80
+    np.testing.assert_allclose(got[:, 1], exact, atol=5e-3)
+    np.testing.assert_allclose(got[:, 0], sweep, atol=5e-3)
+
+
+@pytest.mark.browser
+def test_page_band_hulls_are_the_map_bands(browser, floor, floor_page):
+    open_page(browser, floor_page)
+    for alpha in (0.0, 0.35):
+        h = browser.execute_script(f"return window.fuzzybrepViewer.hulls({alpha})")
+        free, obstacle = band_quads(floor, alpha)
+        for js, py in ((h["free"], free), (h["obstacle"], obstacle)):
+            page = shapely.union_all([shapely.Polygon(np.reshape(c, (-1, 2))) for c in js])
+            ref = shapely.union_all(shapely.convex_hull(shapely.multipoints(py)))
+            # the page's offsets are good to 0.1 mm (T and V are sent at that step)
+            assert shapely.symmetric_difference(page, ref).area <= 1e-4 * ref.length
+            # counter-clockwise, so that one nonzero fill paints their union
+            assert all(shapely.Polygon(np.reshape(c, (-1, 2))).exterior.is_ccw for c in js)
+
+
+@pytest.mark.browser
+@pytest.mark.reallog
+def test_intel_page_in_chromium(browser, tmp_path):
+    fuzzy = build_intel(log_path("intel"), tmp_path / "intel.json")
+    assert run("view", tmp_path / "intel.json", "--html", tmp_path / "intel.html") == 0
+    size = (tmp_path / "intel.html").stat().st_size
+    assert size < 1_500_000  # about 0.5 MB for 22 705 vertices and 910 poses
+    open_page(browser, tmp_path / "intel.html")
+    keep_screenshot(browser, tmp_path / "intel.png", "intel.png")
+    before = canvas_pixels(browser)
+    browser.execute_script("window.fuzzybrepViewer.setAlpha(0.1);"
+                           "return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+    assert canvas_pixels(browser) != before
+    mu = browser.execute_script("const v = window.fuzzybrepViewer; const [x, y] = arguments[0];"
+                                "return v.muAt(x, y).sweep", fuzzy.crisp.principal.vertices[0].tolist())
+    assert 0.99 <= mu <= 1.0
