@@ -170,8 +170,9 @@ class BRepMap:
         for g in polys:
             g = shapely.orient_polygons(g, exterior_cw=False)
             shell = Ring(np.asarray(g.exterior.coords)[:-1])
-            holes = tuple(Ring(np.asarray(h.coords)[:-1]) for h in g.interiors)
-            regions.append(Region(shell, holes))
+            holes = (Ring(np.asarray(h.coords)[:-1]) for h in g.interiors)
+            # a hole collapsed to a line (simplification can do that to a tiny one) bounds nothing
+            regions.append(Region(shell, tuple(h for h in holes if len(h) >= 3 and h.signed_area < 0)))
         return cls(tuple(regions), unit)
 
     def with_rings(self, rings: list[Ring]) -> "BRepMap":
@@ -298,4 +299,12 @@ def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplif
     g = shapely.MultiPolygon(out) if len(out) > 1 else out[0]
     if simplify > 0:
         g = _polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
+        # simplification can squash a tiny hole into a needle with (almost) no area: below a
+        # tenth of the tolerance squared it bounds nothing the map can resolve
+        floor = (simplify / 10) ** 2
+        g = shapely.MultiPolygon([
+            shapely.Polygon(p.exterior, [h for h in p.interiors if shapely.Polygon(h).area > floor])
+            for p in shapely.get_parts(g) if p.area > min_piece_area
+        ])
+        g = g.geoms[0] if len(g.geoms) == 1 else g
     return g

@@ -599,7 +599,7 @@ class FuzzyBRepMap:
         """Table 5.3 for this map: thesis accounting, compact encoding, occupancy grids per cell size."""
         n = self.crisp.n_vertices
         rows = memory_table(n, n, float(self.crisp_geometry.area), cells, unit=self.unit)
-        rows.insert(1, MemoryRow("fuzzy B-rep, compact (crisp vertices, FM, edge kinds, Table 4.2)", None,
+        rows.insert(1, MemoryRow("fuzzy B-rep, compact (vertices to 1 mm as varint steps, edge kinds, Table 4.2)", None,
                                  compact_bytes(self)))
         x0, y0, x1, y1 = self.crisp_geometry.bounds
         for c in cells:
@@ -825,21 +825,12 @@ def memory_table(n_vertices: int, n_edges: int, area: float, cells=(0.3, 0.2, 0.
 
 
 def compact_bytes(fuzzy: FuzzyBRepMap) -> int:
-    """Bytes of a compact encoding that stores only what cannot be derived.
+    """Bytes of the compact encoding (``fuzzybrep.compact``): crisp vertices quantised to 1 mm
+    (for metres) as varint steps, edge kinds as bits, FM only where it does not follow the kinds,
+    and Table 4.2. VIN, VOUT, T, U, V, W and the edge tables follow from these in O(n)."""
+    from .compact import encode
 
-    Per vertex its crisp X, Y (float32, 8 bytes); per ring its vertex count (4 bytes); per edge
-    its kind (1 bit, packed); FM indices only if the table has more than one function (1 byte
-    per vertex); per membership function a type byte and 4 bytes per parameter. VIN, VOUT, T,
-    U, V, W and the edge tables follow from these in O(n).
-    """
-    n = fuzzy.crisp.n_vertices
-    total = 8 * n + 4 * len(fuzzy.crisp.rings) + math.ceil(n / 8)
-    if len(fuzzy.table) > 1:
-        total += n
-    for _, f in fuzzy.table:
-        params = [v for k, v in f.to_dict().items() if k != "type" and not isinstance(v, bool)]
-        total += 1 + 4 * len(params)
-    return total
+    return len(encode(fuzzy.crisp, fuzzy.table.to_dicts()))
 
 
 def memory_markdown(rows: list[MemoryRow], reference: int | None = None) -> str:

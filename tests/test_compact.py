@@ -1,0 +1,78 @@
+"""The compact encoding: a small robot's copy of the map, back within half a quantum."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from fuzzybrep import BRepMap, MapFileError, Region, Ring
+from fuzzybrep.compact import decode, decode_varints, encode, encode_varints, read_compact, write_compact
+from fuzzybrep.fuzzy import compact_bytes, fuzzify
+from fuzzybrep.membership import Triangular
+
+
+@given(st.lists(st.integers(-(2**62), 2**62), max_size=200))
+def test_varints_round_trip(values):
+    data = encode_varints(np.array(values, dtype=np.int64))
+    back, end = decode_varints(data, len(values))
+    assert back.tolist() == values and end == len(data)
+
+
+def test_small_steps_take_one_byte():
+    assert len(encode_varints(np.array([0, 1, -1, 63, -64]))) == 5
+    assert len(encode_varints(np.array([64, 8191, -8192]))) == 6
+
+
+def sample_map() -> BRepMap:
+    rng = np.random.default_rng(2)
+    shell = Ring(np.array([(0, 0), (12.3456, 0), (12.3456, 8.9), (0, 8.9)]), [0, 1, 0, 0])
+    holes = []
+    for k in range(5):
+        c = rng.uniform(2, 7, 2)
+        a = np.linspace(0, 2 * np.pi, 7, endpoint=False)[::-1]  # clockwise
+        holes.append(Ring(c + 0.4 * np.column_stack((np.cos(a), np.sin(a))), rng.integers(0, 2, 7)))
+    piece = Ring(np.array([(20, 0), (21, 0), (21, 1)]))
+    return BRepMap((Region(shell, tuple(holes)), Region(piece)), "m")
+
+
+@pytest.mark.parametrize("frontier", [False, True])
+def test_round_trip_within_half_a_quantum(tmp_path, frontier):
+    fz = fuzzify(sample_map(), Triangular(0.19913), frontier_mf=Triangular(0.3) if frontier else None)
+    p = tmp_path / "m.fbrc"
+    n = write_compact(p, fz.crisp, fz.table.to_dicts())
+    assert n == p.stat().st_size == compact_bytes(fz)
+    crisp, mfs = read_compact(p)
+    assert mfs == fz.table.to_dicts() and crisp.unit == "m"
+    assert [len(r.holes) for r in crisp.regions] == [len(r.holes) for r in fz.crisp.regions]
+    for a, b in zip(fz.crisp.rings, crisp.rings):
+        assert np.abs(a.vertices - b.vertices).max() <= 0.0005 + 1e-12
+        assert np.array_equal(a.kinds, b.kinds) and np.array_equal(a.fm, b.fm)
+
+
+def test_explicit_fm_when_it_does_not_follow_the_kinds():
+    m = sample_map()
+    rings = [Ring(r.vertices, r.kinds, (np.arange(len(r)) % 3) + 1) for r in m.rings]
+    m = m.with_rings(rings)
+    data = encode(m, [{"type": "triangular", "tme": 0.2}] * 3)
+    back, _ = decode(data)
+    assert all(np.array_equal(a.fm, b.fm) for a, b in zip(m.rings, back.rings))
+
+
+def test_compact_is_far_smaller_than_the_json_map(tmp_path):
+    fz = fuzzify(sample_map())
+    assert compact_bytes(fz) < 300
+    # about 2 to 4 bytes per vertex: two small varints
+    assert compact_bytes(fz) < 4 * fz.crisp.n_vertices + 120
+
+
+def test_bad_compact_files(tmp_path):
+    p = tmp_path / "bad.fbrc"
+    p.write_bytes(b"NOPE")
+    with pytest.raises(MapFileError, match="bad.fbrc.*magic"):
+        read_compact(p)
+    data = encode(sample_map(), [])
+    p.write_bytes(data[:-5])
+    with pytest.raises(MapFileError, match="not a valid compact map"):
+        read_compact(p)
