@@ -327,28 +327,29 @@ def summary(r: DemoResult, out: str | None = None, seconds: float | None = None)
     """A few lines a person reads in ten seconds."""
     e = r.errors.summary(r.odometry_error_mm / 1000.0, r.tme_m)
     f = r.maps["filtered"]
+    rows, k = memory_rows(f.fuzzy), len(GRID_CELLS)
     lines = [
         f"{r.world.name or r.world_source}: {len(r.scans)} scans over {r.route.length:.0f} m, "
         f"UMBmark odometry error {r.odometry_error_mm:.1f} mm -> TME {r.tme_mm:.1f} mm (thesis {THESIS_TME_MM} mm)",
-        f"poses {r.pose_model}: error up to {e['position_error_m']['max'] * 1000:.0f} mm and "
-        f"{e['heading_error_deg']['max']:.1f}°; {_pct(e['returns_within_tme'])} of returns within TME",
-        f"map: {f.fuzzy.crisp.n_vertices} vertices, {f.fuzzy.crisp.n_holes} holes, "
-        f"{memory_rows(f.fuzzy)[0]['bytes']} bytes (compact {memory_rows(f.fuzzy)[1]['bytes']}) vs "
-        + ", ".join(f"{row['bytes']}" for row in memory_rows(f.fuzzy)[2:2 + len(GRID_CELLS)])
-        + " for grids of " + "/".join(f"{round(c * 100)}" for c in GRID_CELLS) + " cm",
+        f"poses {r.pose_model}: scan pose error up to {e['position_error_m']['max'] * 1000:.0f} mm and "
+        f"{e['heading_error_deg']['max']:.1f}° (mean {e['position_error_m']['mean'] * 1000:.0f} mm, "
+        f"{e['heading_error_deg']['mean']:.1f}°); {_pct(e['returns_within_tme'])} of returns within TME",
+        f"map: {f.fuzzy.crisp.n_vertices} vertices ({f.fuzzy.crisp.n_holes} holes): {rows[0]['bytes']} bytes as "
+        f"Table 5.3 counts, {rows[1]['bytes']} compact",
+        f"grids at " + "/".join(f"{round(c * 100)}" for c in GRID_CELLS) + " cm: "
+        + "/".join(str(row["bytes"]) for row in rows[2:2 + k]) + " bytes over the map's area, "
+        + "/".join(str(row["bytes"]) for row in rows[2 + k:2 + 2 * k]) + " over its bounding box",
     ]
-    head = (f"{'':>11} {'seen wall in support':>21} {'wall in safe region':>20} {'boundary within TME':>20}")
-    lines.append(head)
+    lines.append(f"{'map':<10} {'α = 0':<6}{'seen wall in support':>22}{'wall in safe region':>22}"
+                 f"{'boundary within TME':>22}")
     for name in BUILDS:
         m = r.maps[name]
         for method in ALPHA_METHODS:
             t, ok = m.truth[method], m.criteria(method)
-            mark = lambda k: "ok" if ok[k] else "FAIL"  # noqa: E731
-            lines.append(
-                f"{name[:10]:>10} {method:>5} {_pct(t.support_coverage):>9} {mark('support_coverage'):>4}"
-                f"{t.unsafe_wall_length:>14.2f} m {mark('unsafe_wall_length'):>4}"
-                f"{_pct(t.boundary_within_tme):>15} {mark('boundary_within_tme'):>4}"
-            )
+            cells = [(_pct(t.support_coverage), ok["support_coverage"]),
+                     (f"{t.unsafe_wall_length:.2f} m", ok["unsafe_wall_length"]),
+                     (_pct(t.boundary_within_tme), ok["boundary_within_tme"])]
+            lines.append(f"{name:<10} {method:<6}" + "".join(f"{v:>16} {'ok' if good else 'FAIL':<5}" for v, good in cells))
     lines.append(f"need >= {_pct(MIN_SUPPORT_COVERAGE)}, 0 m and >= {_pct(MIN_BOUNDARY_WITHIN_TME)}; "
                  f"done in {r.seconds if seconds is None else seconds:.1f} s" + (f"; files in {out}" if out else ""))
-    return lines
+    return [line.rstrip() for line in lines]
