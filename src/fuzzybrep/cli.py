@@ -14,6 +14,7 @@ from .errors import FuzzyBrepError
 
 #: command modules, in the order ``fuzzybrep --help`` lists them
 COMMANDS = [
+    "demo",
     "build",
     "export",
     "view",

@@ -362,7 +362,10 @@ class Route:
             features, scale = _read_geojson(path)
             lines = [(k, f) for k, f in features if f["geometry"].geom_type == "LineString"]
             routes = [(k, f) for k, f in lines if f["properties"].get("role") == "route"]
-            chosen = routes or (lines if len(lines) == 1 and not lines[0][1]["properties"].get("role") else [])
+            # a lone LineString without a role is the route, unless it is a glass wall
+            unmarked = [(k, f) for k, f in lines
+                        if not f["properties"].get("role") and f["properties"].get("material") != "glass"]
+            chosen = routes or (unmarked if len(lines) == 1 and len(unmarked) == 1 else [])
             if len(chosen) != 1:
                 raise WorldError(f"expected one LineString feature with role route, found {len(routes)}", path)
             k, feat = chosen[0]

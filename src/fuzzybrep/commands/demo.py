@@ -1,0 +1,87 @@
+"""``fuzzybrep demo``: the thesis's chapter 5 experiment on a simulated floor, checked against the truth."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+NAME = "demo"
+HELP = "reproduce the thesis's experiment on a built-in (or your) floor plan and check the map against the truth"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", metavar="DIR", default="fuzzybrep-demo",
+                   help="folder for floorplan.geojson, map.json, report.json and the figures (default %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
+    g = p.add_argument_group("your own floor plan (docs/demo.md)")
+    g.add_argument("--world", metavar="FILE.geojson", help="floor plan, GeoJSON in metres (default: the built-in E1-like floor)")
+    g.add_argument("--route", metavar="FILE",
+                   help="route: GeoJSON LineString (role route) or CSV of x,y waypoints in metres; "
+                        "default: the world file's route feature, or the built-in clockwise route")
+    g.add_argument("--spacing", type=float, default=None, help="metres between stops (default: the route's, else 5)")
+    g = p.add_argument_group("poses the map uses")
+    g.add_argument("--poses", choices=["relocalised", "odometry", "true"], default="relocalised",
+                   help="relocalised (default): the robot knows its pose when it leaves each stop, so every scan "
+                        "carries one leg of odometry error; odometry: pure dead reckoning from home; true: no error")
+    g.add_argument("--raw-odometry", action="store_true", help="same as --poses odometry: see what dead reckoning does")
+    p.add_argument("--no-figures", action="store_true", help="skip the four figures (faster)")
+    p.add_argument("--json", action="store_true", help="print report.json instead of the summary")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..demo import report, run_demo, summary
+    from ..errors import WorldError
+    from ..mapfile import write_atomic
+    from ..simulate import builtin_floor, builtin_route
+    from ..world import Route, World
+
+    t0 = time.perf_counter()
+    out = Path(args.out)
+    if args.world:
+        world = World.from_geojson(args.world)
+        source = str(args.world)
+    else:
+        world, source = builtin_floor(), "built-in"
+    if args.route:
+        route = Route.from_file(args.route, args.spacing)
+    elif args.world:
+        try:
+            route = Route.from_file(args.world, args.spacing)
+        except WorldError as e:
+            raise WorldError(f"{e.reason} (pass --route, or give the world file a route feature)", args.world,
+                             e.feature) from None
+    else:
+        route = builtin_route(5.0 if args.spacing is None else args.spacing)
+    result = run_demo(world, route, seed=args.seed, pose_model="odometry" if args.raw_odometry else args.poses,
+                      world_source=source)
+
+    t_out = time.perf_counter()
+    world.write_geojson(out / "floorplan.geojson", route)
+    fz = result.maps["filtered"].fuzzy
+    poses = [[*s.pose, s.timestamp] for s in result.scans]
+    fz.save(out / "map.json", poses=poses, metadata={
+        "source": "fuzzybrep demo", "world": source, "seed": args.seed, "pose_model": result.pose_model,
+        "tme_m": result.tme_m, "build": "filtered", "scans": len(result.scans),
+    })
+    result.timings["write files"] = time.perf_counter() - t_out
+    files = ["floorplan.geojson", "map.json", "report.json"]
+    if not args.no_figures:
+        from ..figures import FIGURES
+
+        for name, draw in FIGURES.items():
+            t = time.perf_counter()
+            draw(result, out / name)
+            result.timings[f"figure {name}"] = time.perf_counter() - t
+            files.append(name)
+    rep = report(result)
+    rep["files"] = files
+    rep["total_seconds"] = time.perf_counter() - t0
+    text = json.dumps(rep, indent=1, allow_nan=False)
+    write_atomic(out / "report.json", (text + "\n").encode())
+    if args.json:
+        print(text)
+    else:
+        print("\n".join(summary(result, str(out), rep["total_seconds"])))
+    return 0
