@@ -50,6 +50,7 @@ class EvidenceConfig:
     carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
     carve_min_cells: int = 1  #: cut out only connected groups of at least this many such cells
+    close_gaps: int = 0  #: close gaps of up to this many cells between occupied cells before clipping
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     chunk: int = 2_000_000  #: samples per batch, to bound memory
 
@@ -192,7 +193,7 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     ev.hits = hits
     if not cfg.clear:
         ev.occupied = hits > 0
-        return ev
+        return _closed(ev, cfg)
 
     last_hit = np.full(nx * ny, -np.inf)
     np.maximum.at(last_hit, hc, rays.time[rays.hit])
@@ -220,6 +221,16 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
     solid = (hits >= cfg.solid_hits) | (hits >= cfg.block_ratio * crossed)
     ev.occupied = (hits > 0) & ~cleared & solid
+    return _closed(ev, cfg)
+
+
+def _closed(ev: Evidence, cfg: EvidenceConfig) -> Evidence:
+    """Fill gaps of up to ``close_gaps`` cells between occupied cells: glass returns only some
+    beams, and a ray must not slip between two of its returns."""
+    if cfg.close_gaps > 0:
+        k = 2 * cfg.close_gaps + 1
+        ny, nx = ev.shape
+        ev.occupied = ndimage.binary_closing(ev.occupied.reshape(ny, nx), np.ones((k, k), bool)).ravel() | ev.occupied
     return ev
 
 

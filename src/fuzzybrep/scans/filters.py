@@ -14,8 +14,9 @@ Each beam gets a status and a free range:
 The spike filter handles what the thesis papered over by hand (5.2). A group of beams that all
 reach beyond both neighbouring beams by more than ``spike_jump``, through an opening narrower
 than ``min_gap`` (the distance between the two neighbours' endpoints), has passed through glass
-or a gap too narrow to be of use; its free range is cut back to the farther of the two
-neighbours, so the map gets no needle or fan of free space. The data are never edited: only how
+or a gap too narrow to be of use; its free range is cut back to the segment joining the two
+neighbours' endpoints (the pane of glass, the edge of the gap), so the map gets no needle or fan
+of free space. The data are never edited: only how
 far each beam's free space reaches. ``min_gap`` defaults to 2·TME: a gap that narrow holds no
 free space at α = 0 anyway.
 """
@@ -91,8 +92,17 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
         if not spike.any():
             continue
         rows, c = np.nonzero(spike)
+        # the spike ends where the surface between its two neighbours lies: on the segment joining
+        # their endpoints (the glass pane, the gap's edge), not at the farther neighbour's range
+        lo_, hi_ = lo[c], hi[c]
+        ax, ay = f[rows, lo_] * cos_b[rows, lo_], f[rows, lo_] * sin_b[rows, lo_]
+        ex, ey = f[rows, hi_] * cos_b[rows, hi_] - ax, f[rows, hi_] * sin_b[rows, hi_] - ay
         for k in range(w):
             j = (first[c] + k) % n
-            f[rows, j] = np.minimum(f[rows, j], flank[rows, c])
+            dx, dy = cos_b[rows, j], sin_b[rows, j]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (ax * ey - ay * ex) / (dx * ey - dy * ex)
+            t = np.where(np.isfinite(t) & (t > 0), t, np.minimum(f[rows, lo_], f[rows, hi_]))
+            f[rows, j] = np.minimum(f[rows, j], np.minimum(t, flank[rows, c]))
             st[rows, j] = CLIPPED
     return f, st
