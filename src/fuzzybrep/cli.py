@@ -23,6 +23,7 @@ COMMANDS = [
     "alpha_cut",
     "membership",
     "memory",
+    "evaluate",
     "grid",
     "simulate",
     "umbmark",
