@@ -15,13 +15,13 @@ $(BIN)/fuzzybrep: pyproject.toml
 install: $(BIN)/fuzzybrep
 
 demo: install
-	$(BIN)/fuzzybrep build $(DATASETS)/carmen/intel-corrected.log.gz --out out/intel.json --plot out/intel.png
+	$(BIN)/fuzzybrep demo --out out/demo
 
 test: install
 	$(BIN)/python -m pytest -q
 
 bench: install
-	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/run.py --readme README.md
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -152,8 +152,16 @@ def test_only_glass_lies_in_the_safe_region(builtin_run):
     assert shapely.intersection(opaque, cut.inner).length == pytest.approx(0.0, abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="crisp pipeline: glass needles survive the spike filter (cut back to the "
-                                       "longer flank) and slip between hit cells of the evidence grid; docs/demo.md")
+def test_only_a_little_glass_is_in_the_safe_region(builtin_run):
+    # what the next test asks for fails on glass alone (the test above: no opaque wall), and by
+    # decimetres out of the 33 m of glass
+    _, rep, _ = builtin_run
+    assert 0.0 <= rep["maps"]["filtered"]["truth"]["exact"]["unsafe_wall_length_m"] < 0.5
+
+
+@pytest.mark.xfail(strict=True, reason="simulated glass passes or mirrors beams one by one: phantom walls 0.2-0.3 m "
+                                       "behind a pane, and stretches between its sparse returns, leave 0.1-0.3 m of "
+                                       "the 33 m of glass inside the exact safe region; docs/demo.md")
 def test_no_wall_in_the_safe_region(builtin_run):
     _, rep, _ = builtin_run
     assert rep["maps"]["filtered"]["truth"]["exact"]["unsafe_wall_length_m"] == 0.0

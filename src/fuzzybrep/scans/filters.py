@@ -77,32 +77,38 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
     st = status.copy()
     cos_b, sin_b = np.cos(bearings), np.sin(bearings)
     known = status != NONE
-    cols = np.arange(n)
     for w in range(1, min(cfg.spike_width, n - 2) + 1):
-        first = cols if full_circle else cols[1 : n - w]
+        # a spike starts where the range rises by more than the jump: few places, so examine only
+        # those (rows, first beam of the group)
+        prev = np.roll(f, 1, axis=1)
+        rows, first = np.nonzero((f > prev + cfg.spike_jump) & np.roll(known, 1, axis=1))
+        if not full_circle:
+            keep = (first >= 1) & (first + w <= n - 1)
+            rows, first = rows[keep], first[keep]
+        if rows.size == 0:
+            continue
         lo, hi = (first - 1) % n, (first + w) % n
-        inner = f[:, first % n]
+        inner = f[rows, first % n]
         for k in range(1, w):
-            inner = np.minimum(inner, f[:, (first + k) % n])
-        flank = np.maximum(f[:, lo], f[:, hi])
+            inner = np.minimum(inner, f[rows, (first + k) % n])
+        flank = np.maximum(f[rows, lo], f[rows, hi])
         # the opening: the distance between the two neighbouring beams' endpoints
-        gx = f[:, lo] * cos_b[:, lo] - f[:, hi] * cos_b[:, hi]
-        gy = f[:, lo] * sin_b[:, lo] - f[:, hi] * sin_b[:, hi]
-        spike = known[:, lo] & known[:, hi] & (inner > flank + cfg.spike_jump) & (np.hypot(gx, gy) < cfg.min_gap)
+        ax, ay = f[rows, lo] * cos_b[rows, lo], f[rows, lo] * sin_b[rows, lo]
+        bx, by = f[rows, hi] * cos_b[rows, hi], f[rows, hi] * sin_b[rows, hi]
+        spike = known[rows, hi] & (inner > flank + cfg.spike_jump) & (np.hypot(ax - bx, ay - by) < cfg.min_gap)
         if not spike.any():
             continue
-        rows, c = np.nonzero(spike)
+        rows, first, lo, hi, flank = rows[spike], first[spike], lo[spike], hi[spike], flank[spike]
+        ax, ay = ax[spike], ay[spike]
         # the spike ends where the surface between its two neighbours lies: on the segment joining
         # their endpoints (the glass pane, the gap's edge), not at the farther neighbour's range
-        lo_, hi_ = lo[c], hi[c]
-        ax, ay = f[rows, lo_] * cos_b[rows, lo_], f[rows, lo_] * sin_b[rows, lo_]
-        ex, ey = f[rows, hi_] * cos_b[rows, hi_] - ax, f[rows, hi_] * sin_b[rows, hi_] - ay
+        ex, ey = bx[spike] - ax, by[spike] - ay
         for k in range(w):
-            j = (first[c] + k) % n
+            j = (first + k) % n
             dx, dy = cos_b[rows, j], sin_b[rows, j]
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = (ax * ey - ay * ex) / (dx * ey - dy * ex)
-            t = np.where(np.isfinite(t) & (t > 0), t, np.minimum(f[rows, lo_], f[rows, hi_]))
-            f[rows, j] = np.minimum(f[rows, j], np.minimum(t, flank[rows, c]))
+            t = np.where(np.isfinite(t) & (t > 0), t, np.minimum(f[rows, lo], f[rows, hi]))
+            f[rows, j] = np.minimum(f[rows, j], np.minimum(t, flank))
             st[rows, j] = CLIPPED
     return f, st

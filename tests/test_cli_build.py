@@ -1,0 +1,102 @@
+"""The command line: build, export and evaluate, and what the user sees when input is bad."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import shapely
+from _synthetic import l_room, scan_of
+
+from fuzzybrep import cli
+from fuzzybrep.fuzzy import FuzzyBRepMap
+from fuzzybrep.mapfile import read_map
+from fuzzybrep.scans.csvscans import write_csv
+
+
+def scans_csv(tmp_path, n=12):
+    rng = np.random.default_rng(4)
+    scans = []
+    for k in range(n):
+        x, y = rng.uniform(0.8, 3.2), rng.uniform(0.8, 1.2) if k % 2 else rng.uniform(2.5, 5.2)
+        if y > 2 and x > 3.5:
+            x = 2.0
+        scans.append(scan_of(l_room(), (x, y, rng.uniform(-3, 3)), n=181, sigma=0.005, seed=k, t=float(k)))
+    p = tmp_path / "scans.csv"
+    write_csv(p, scans)
+    return p, scans
+
+
+def test_build_writes_a_fuzzy_map_and_a_picture(tmp_path, capsys):
+    log, scans = scans_csv(tmp_path)
+    out, png = tmp_path / "map.json", tmp_path / "map.png"
+    assert cli.main(["build", str(log), "--out", str(out), "--plot", str(png)]) == 0
+    err = capsys.readouterr().err
+    assert "12 scans" in err and "vertices" in err and "holes" in err and "scans/s" in err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    m = read_map(out)
+    assert len(m.poses) == 12 and m.metadata["scans"] == 12
+    # fuzzified with the default TME; frontier edges have their own membership function
+    assert [f["index"] for f in m.membership_functions] == [1, 2]
+    fz = FuzzyBRepMap.load(out)
+    assert fz.crisp.equals_exactly(m.crisp)
+    # the map is the L-shaped room, give or take the band
+    room = l_room()
+    g = fz.crisp.to_shapely()
+    assert g.difference(room.buffer(0.05)).area < 0.05 and g.area > 0.8 * room.area
+
+
+def test_build_with_iepf_and_a_theta_step(tmp_path):
+    log, _ = scans_csv(tmp_path)
+    out = tmp_path / "m.json"
+    assert cli.main(["build", str(log), "--out", str(out), "--lines", "iepf", "--quiet"]) == 0
+    assert cli.main(["build", str(log), "--out", str(out), "--theta-step", "0.5", "--tme", "0.1", "--quiet"]) == 0
+    assert read_map(out).membership_functions[0]["tme"] == 0.1
+
+
+def test_export_geojson_has_the_crisp_free_space(tmp_path):
+    log, _ = scans_csv(tmp_path)
+    out, gj = tmp_path / "m.json", tmp_path / "m.geojson"
+    cli.main(["build", str(log), "--out", str(out), "--quiet"])
+    assert cli.main(["export", str(out), "--geojson", str(gj)]) == 0
+    d = json.loads(gj.read_text())
+    crisp = [f for f in d["features"] if f["properties"]["role"] == "crisp"]
+    assert len(crisp) == 1
+    g = shapely.geometry.shape(crisp[0]["geometry"])
+    assert g.is_valid and np.isclose(g.area, read_map(out).crisp.area)
+
+
+def test_bad_log_exits_2_naming_file_and_line(tmp_path, capsys):
+    bad = tmp_path / "bad.log"
+    bad.write_text("FLASER 3 1.0 -2.0 1.0 0 0 0 0 0 0 1.0 h 1.0\n")
+    assert cli.main(["build", str(bad), "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert "bad.log, line 1, field r_2" in err and "negative" in err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_skip_bad_says_how_many(tmp_path, capsys):
+    log, _ = scans_csv(tmp_path, n=6)
+    text = log.read_text().splitlines()
+    text[5] = text[5].rsplit(",", 1)[0] + ",nan"
+    log.write_text("\n".join(text) + "\n")
+    out = tmp_path / "m.json"
+    assert cli.main(["build", str(log), "--out", str(out)]) == 2
+    assert "not finite" in capsys.readouterr().err
+    assert cli.main(["build", str(log), "--out", str(out), "--skip-bad"]) == 0
+    assert "skipped 1 bad line" in capsys.readouterr().err
+
+
+def test_unreadable_map_file(tmp_path, capsys):
+    p = tmp_path / "broken.json"
+    p.write_text('{"format": "fuzzybrep-map", "version": 1')
+    assert cli.main(["export", str(p), "--geojson", str(tmp_path / "x.geojson")]) == 2
+    assert "broken.json" in capsys.readouterr().err
+
+
+def test_evaluate_prints_scores(tmp_path, capsys):
+    log, _ = scans_csv(tmp_path, n=10)
+    assert cli.main(["evaluate", str(log), "--holdout", "2", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["scans_used"] == 5 and d["scans_held_out"] == 5
+    assert 0.9 <= d["exact"]["explained"] <= 1 and d["exact"]["violations"] <= 0.01
