@@ -173,9 +173,13 @@ def hough_lines(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: L
 def _extend(points: np.ndarray, a: int, b: int, e: int, tol: float) -> int:
     """Grow a line [a, b) along a long wall: refit, then take the following points within tol."""
     while b < e:
-        fit = fit_lines(points[a:b], np.array([0]), np.array([b - a]))
-        c, s_, rho = np.cos(fit.theta[0]), np.sin(fit.theta[0]), fit.rho[0]
-        dist = np.abs(points[b:e, 0] * c + points[b:e, 1] * s_ - rho)
+        p = points[a:b]
+        c = p.mean(axis=0)
+        d = p - c
+        # total least squares: the normal is the direction of least spread
+        phi = 0.5 * np.arctan2(2 * np.dot(d[:, 0], d[:, 1]), np.dot(d[:, 0], d[:, 0]) - np.dot(d[:, 1], d[:, 1]))
+        nx, ny = -np.sin(phi), np.cos(phi)
+        dist = np.abs((points[b:e, 0] - c[0]) * nx + (points[b:e, 1] - c[1]) * ny)
         off = np.flatnonzero(dist > tol)
         grow = int(off[0]) if off.size else e - b
         if grow == 0:

@@ -29,7 +29,7 @@ class Scan:
     timestamp: float = 0.0
     max_range: float = np.inf
     source: str = ""
-    _checked: bool = field(default=False, repr=False)
+    _full: bool = field(default=False, repr=False, init=False)
 
     def __post_init__(self) -> None:
         r = np.ascontiguousarray(self.ranges, dtype=np.float64)
@@ -50,9 +50,11 @@ class Scan:
             i = int(np.argmax(bad))
             raise ScanValueError(where, None, f"beam {i} has range {r[i]!r} (NaN, infinite or negative)")
         if r.size >= 2 and np.any(np.diff(b) <= 0):
-            raise ScanValueError(where, None, f"bearings must increase strictly")
+            raise ScanValueError(where, None, "bearings must increase strictly")
         if r.size and b[-1] - b[0] >= 2 * np.pi:
-            raise ScanValueError(where, None, f"bearings span a full turn or more")
+            raise ScanValueError(where, None, "bearings span a full turn or more")
+        full = b.size >= 3 and bool(b[-1] - b[0] + 1.5 * np.median(np.diff(b)) >= 2 * np.pi)
+        object.__setattr__(self, "_full", full)
 
     @property
     def returns(self) -> np.ndarray:
@@ -62,10 +64,7 @@ class Scan:
     @property
     def full_circle(self) -> bool:
         """True when the beams cover the whole turn (a consolidated 360° scan, thesis 5.2)."""
-        if self.bearings.size < 3:
-            return False
-        step = np.median(np.diff(self.bearings))
-        return bool(self.bearings[-1] - self.bearings[0] + 1.5 * step >= 2 * np.pi)
+        return self._full
 
     def world_angles(self) -> np.ndarray:
         return self.pose[2] + self.bearings
