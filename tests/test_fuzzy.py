@@ -269,7 +269,12 @@ def test_memory_of_a_map():
     fz = fuzzify(square(10, [[(2, 2), (2, 3), (3, 3), (3, 2)]]), tme=0.2)
     rows = fz.memory([1.0])
     assert rows[0].numbers == 16 * 8 and rows[0].bytes == 4 * 16 * 8
-    assert rows[1].bytes == 8 * 8 + 4 * 2 + 1 + (1 + 4)  # compact: xy, ring sizes, kinds, Table 4.2
+    # compact: the encoder's own output, at most 4 bytes per vertex beyond its header and Table 4.2
+    from fuzzybrep.compact import encode
+
+    assert rows[1].bytes == len(encode(fz.crisp, fz.table.to_dicts()))
+    header = len(encode(square(10, []), fz.table.to_dicts())) - 2 - 4 * 2  # a map of one 4-vertex ring
+    assert rows[1].bytes - header <= 2 + 4 * 8  # two ring sizes, then 2 short varints per vertex
     assert rows[2].numbers == 99  # area 99 at 1×1
     assert rows[3].numbers == 100  # bounding box 10×10
 

@@ -78,7 +78,7 @@ def build_config(route: Route, filtered: bool = True) -> BuildConfig:
     # past a pane are wider than any gap a real scan shows: openings up to 1 m count as spikes,
     # and a mirror's phantom wall 0.2 m behind the pane is already beyond the map's uncertainty
     beams = replace(base.beams, max_usable=Laser.max_range, no_return_free=no_return_reach(route),
-                    spike_width=12 if filtered else 0, min_gap=1.0, spike_jump=0.2)
+                    spike_width=base.beams.spike_width if filtered else 0, min_gap=1.0, spike_jump=0.2)
     return replace(base, beams=beams, evidence=replace(base.evidence, clear=False), use_evidence=filtered)
 
 

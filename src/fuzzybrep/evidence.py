@@ -43,7 +43,7 @@ class EvidenceConfig:
     cell: float = 0.05  #: grid cell size (map unit)
     step: float = 0.05  #: sampling step along rays
     cross_margin: float = 0.15  #: a ray crosses cells only this far short of its end
-    own_margin: float = 0.12  #: evidence closer than this to a beam's own end is its own surface
+    own_margin: float = 0.15  #: evidence closer than this to a beam's own end is its own surface
     clear_crossings: int = 3  #: crossings after the last hit needed to clear an obstacle
     clear: bool = True  #: allow later free rays to clear obstacles (dynamic environments)
     solid_hits: int = 3  #: a cell hit this often blocks rays whatever crossed it

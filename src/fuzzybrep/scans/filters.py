@@ -11,14 +11,15 @@ Each beam gets a status and a free range:
 * CLIPPED: set where the spike filter (here) or evidence from other scans (evidence.py) shortens
   the beam.
 
-The spike filter handles what the thesis papered over by hand (5.2). A group of beams that all
-reach beyond both neighbouring beams by more than ``spike_jump``, through an opening narrower
-than ``min_gap`` (the distance between the two neighbours' endpoints), has passed through glass
-or a gap too narrow to be of use; its free range is cut back to the segment joining the two
-neighbours' endpoints (the pane of glass, the edge of the gap), so the map gets no needle or fan
-of free space. The data are never edited: only how
-far each beam's free space reaches. ``min_gap`` defaults to 2·TME: a gap that narrow holds no
-free space at α = 0 anyway.
+The spike filter handles what the thesis papered over by hand (5.2). A group of beams between a
+depth jump away from the sensor and a jump back, all reaching more than ``spike_jump`` beyond
+the segment joining the two near endpoints, where those endpoints are less than ``min_gap``
+apart, has passed through glass, a doorway or a gap: the space behind was seen only as a fan of
+rays through the opening. Its free
+range is cut back to the segment joining the two neighbours' endpoints (the pane, the doorway),
+so the map gets no needle or fan of free space; a room is mapped from inside, or from where its
+opening looks wider than ``min_gap`` (1 m: a door). The data are never edited: only how far each
+beam's free space reaches.
 """
 
 from __future__ import annotations
@@ -36,9 +37,10 @@ from .scan import Scan
 class BeamConfig:
     max_usable: float = 8.0  #: longest range whose free space is trusted (LMS200: 8 m in mm mode)
     no_return_free: float = 0.0  #: free range claimed along a beam with no return
-    spike_width: int = 16  #: widest group of beams (in beams) examined as a possible spike
-    spike_jump: float = 0.5  #: a spike reaches this much (map unit) beyond both neighbours, at least
-    min_gap: float = 0.4  #: openings narrower than this (map unit) let no free space through
+    spike_width: int = 180  #: widest opening examined, in beams (a bound on work only)
+    spike_jump: float = 0.5  #: beams through an opening reach at least this far (map unit) beyond it
+    min_gap: float = 1.0  #: openings narrower than this (map unit: a door) let no free space through
+    max_pairs: int = 6  #: jumps back tried for each jump away
 
 
 def classify(scan: Scan, cfg: BeamConfig = BeamConfig()) -> tuple[np.ndarray, np.ndarray]:
@@ -67,48 +69,73 @@ def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig()) -> list[
 
 
 def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig, full_circle: bool = False):
-    """Cut back narrow groups of beams reaching far beyond both neighbours (see module doc).
+    """Cut back the beams that passed through a narrow opening (see the module doc).
 
-    free, status, bearings: (S, n) arrays, one row per scan. Groups of w = 1, 2, ... beams are
-    examined in turn, each on the ranges the narrower groups left.
+    free, status, bearings: (S, n) arrays, one row per scan. An opening runs from a depth jump
+    away from the sensor (beam lo near, lo + 1 far) to a later jump back (hi - 1 far, hi near),
+    the same test that splits scan polygons. It is narrow if lo's and hi's endpoints are less
+    than ``min_gap`` apart and every beam between reaches at least ``spike_jump`` beyond the
+    segment joining them; such beams are cut back to that segment. Up to ``max_pairs`` jumps back
+    are tried for each jump away, the nearest first; openings wider than ``spike_width`` beams
+    are not examined.
     """
+    from ..polygon import PolygonConfig, depth_continuous
+    from ..lines import spans
+
     S, n = free.shape
     f = free.copy()
     st = status.copy()
-    cos_b, sin_b = np.cos(bearings), np.sin(bearings)
     known = status != NONE
-    for w in range(1, min(cfg.spike_width, n - 2) + 1):
-        # a spike starts where the range rises by more than the jump: few places, so examine only
-        # those (rows, first beam of the group)
-        prev = np.roll(f, 1, axis=1)
-        rows, first = np.nonzero((f > prev + cfg.spike_jump) & np.roll(known, 1, axis=1))
-        if not full_circle:
-            keep = (first >= 1) & (first + w <= n - 1)
-            rows, first = rows[keep], first[keep]
-        if rows.size == 0:
+    cos_b, sin_b = np.cos(bearings), np.sin(bearings)
+    x, y = f * cos_b, f * sin_b
+    db = np.diff(bearings, axis=1)
+    # the flanks must be returns (they bound the opening); the beams through it are any that claim
+    # free space, a no-return beam with ``no_return_free`` included
+    reach = f > 0
+    cont = depth_continuous(f[:, :-1], f[:, 1:], db, PolygonConfig()) & reach[:, :-1] & reach[:, 1:]
+    away = ~cont & known[:, :-1] & reach[:, 1:] & (f[:, 1:] > f[:, :-1])  # lo = i, first beam of the group i + 1
+    back = ~cont & reach[:, :-1] & known[:, 1:] & (f[:, :-1] > f[:, 1:])  # hi = j + 1, last beam of the group j
+    ra, ia = np.nonzero(away)
+    rb, jb = np.nonzero(back)
+    if ra.size == 0 or rb.size == 0:
+        return f, st
+    key_b = rb * (n + 1) + jb
+    start_b = np.searchsorted(key_b, ra * (n + 1) + ia + 1)
+    done = np.zeros(ra.size, bool)
+    cut_rows, cut_cols, cut_t = [], [], []
+    for k in range(cfg.max_pairs):
+        c = np.flatnonzero(~done & (start_b + k < key_b.size))
+        if c.size == 0:
+            break
+        q = start_b[c] + k
+        same = rb[q] == ra[c]
+        c, q = c[same], q[same]
+        lo, hi = ia[c], jb[q] + 1
+        w = hi - lo - 1
+        ok = (w >= 1) & (w <= cfg.spike_width)
+        row = ra[c]
+        ax, ay, bx, by = x[row, lo], y[row, lo], x[row, hi], y[row, hi]
+        ok &= np.hypot(ax - bx, ay - by) < cfg.min_gap
+        c, row, lo, w, ax, ay, bx, by = c[ok], row[ok], lo[ok], w[ok], ax[ok], ay[ok], bx[ok], by[ok]
+        if c.size == 0:
             continue
-        lo, hi = (first - 1) % n, (first + w) % n
-        inner = f[rows, first % n]
-        for k in range(1, w):
-            inner = np.minimum(inner, f[rows, (first + k) % n])
-        flank = np.maximum(f[rows, lo], f[rows, hi])
-        # the opening: the distance between the two neighbouring beams' endpoints
-        ax, ay = f[rows, lo] * cos_b[rows, lo], f[rows, lo] * sin_b[rows, lo]
-        bx, by = f[rows, hi] * cos_b[rows, hi], f[rows, hi] * sin_b[rows, hi]
-        spike = known[rows, hi] & (inner > flank + cfg.spike_jump) & (np.hypot(ax - bx, ay - by) < cfg.min_gap)
-        if not spike.any():
-            continue
-        rows, first, lo, hi, flank = rows[spike], first[spike], lo[spike], hi[spike], flank[spike]
-        ax, ay = ax[spike], ay[spike]
-        # the spike ends where the surface between its two neighbours lies: on the segment joining
-        # their endpoints (the glass pane, the gap's edge), not at the farther neighbour's range
-        ex, ey = bx[spike] - ax, by[spike] - ay
-        for k in range(w):
-            j = (first + k) % n
-            dx, dy = cos_b[rows, j], sin_b[rows, j]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = (ax * ey - ay * ex) / (dx * ey - dy * ex)
-            t = np.where(np.isfinite(t) & (t > 0), t, np.minimum(f[rows, lo], f[rows, hi]))
-            f[rows, j] = np.minimum(f[rows, j], np.minimum(t, flank))
-            st[rows, j] = CLIPPED
+        # every beam between must reach beyond the segment lo-hi by spike_jump
+        owner = np.repeat(np.arange(c.size), w)
+        cols = spans(lo + 1, w)
+        rr = row[owner]
+        ex, ey = (bx - ax)[owner], (by - ay)[owner]
+        dx, dy = cos_b[rr, cols], sin_b[rr, cols]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (ax[owner] * ey - ay[owner] * ex) / (dx * ey - dy * ex)
+        beyond = np.isfinite(t) & (t > 0) & (f[rr, cols] > t + cfg.spike_jump)
+        all_beyond = np.bincount(owner, ~beyond, c.size) == 0
+        keep = all_beyond[owner]
+        cut_rows.append(rr[keep])
+        cut_cols.append(cols[keep])
+        cut_t.append(t[keep])
+        done[c[all_beyond]] = True
+    if cut_rows:
+        rr, cc, tt = np.concatenate(cut_rows), np.concatenate(cut_cols), np.concatenate(cut_t)
+        np.minimum.at(f, (rr, cc), tt)
+        st[rr, cc] = CLIPPED
     return f, st
