@@ -132,6 +132,10 @@ def test_map_file_round_trips_exactly(tmp_path):
     assert back.crisp.equals_exactly(m) and np.array_equal(back.poses, poses)
     assert back.metadata == {"source": "test"} and back.membership_functions[0]["tme"] == 0.2
     assert not list(tmp_path.glob(".*tmp"))  # no temporary left behind
+    # readable like any file the user writes, not private like a temporary file
+    from fuzzybrep.mapfile import FILE_MODE
+
+    assert p.stat().st_mode & 0o777 == FILE_MODE
 
 
 def test_map_file_errors_name_the_file(tmp_path):

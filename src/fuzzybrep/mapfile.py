@@ -32,6 +32,16 @@ FORMAT = "fuzzybrep-map"
 VERSION = 1
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: the permissions a plain open(path, "w") would give: temporary files start private (0600)
+FILE_MODE = 0o666 & ~_umask()
+
+
 @dataclass
 class MapFile:
     """Everything a map file holds."""
@@ -111,6 +121,7 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         try:
+            os.fchmod(fd, FILE_MODE)
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
                 f.flush()
