@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._logopts import add_log_arguments, read_log
 from ._maps import DEFAULT_TME_M, add_mf_arguments
 
 NAME = "build"
@@ -15,12 +16,9 @@ HELP = "build a map from a laser log (CARMEN, CSV scans or a ROS bag)"
 
 
 def add_arguments(p) -> None:
-    p.add_argument("log", help="CARMEN log (.log or .log.gz), CSV scan file (.csv) or ROS bag")
+    add_log_arguments(p)
     p.add_argument("--out", required=True, help="map file to write (JSON)")
     p.add_argument("--plot", help="picture of the map to write (PNG, SVG or PDF)")
-    p.add_argument("--format", choices=["carmen", "csv", "rosbag"], help="input format (default: from the file name)")
-    p.add_argument("--max-range", type=float, help="ranges at or above this mean no return (default: the log's largest range)")
-    p.add_argument("--skip-bad", action="store_true", help="skip malformed lines (and say how many) instead of stopping")
     p.add_argument("--consolidate", action="store_true",
                    help="merge pairs of 180° scans taken at one spot facing opposite ways into 360° scans (thesis 5.2)")
     p.add_argument("--lines", choices=["hough", "iepf"], default="hough", help="line extractor (default: hough, thesis 3.2.1.1)")
@@ -35,9 +33,6 @@ def add_arguments(p) -> None:
     p.add_argument("--simplify", type=float, help="vertex reduction tolerance (map unit, default from the config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M)
-    from ._bagopts import add_bag_arguments
-
-    add_bag_arguments(p)
 
 
 def config_from_args(args):
@@ -66,18 +61,11 @@ def run(args) -> int:
     from ._maps import fuzzify_from_args
     from ..plot import save_map_figure
     from ..scans.consolidate import consolidate_pairs
-    from ..scans.read import ReadReport, read_scans
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)
     t0 = time.perf_counter()
-    report = ReadReport()
-    from ._bagopts import bag_kwargs
-
-    kw = {"skip_bad": args.skip_bad, **bag_kwargs(args, args.log, args.format)}
-    if args.max_range is not None:
-        kw["max_range"] = args.max_range
-    scans = read_scans(args.log, fmt=args.format, report=report, **kw)
+    scans, report = read_log(args)
     if args.consolidate:
         scans, report.consolidated = consolidate_pairs(scans)
     if report.skipped:

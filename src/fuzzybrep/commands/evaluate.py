@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import json
 
+from ._logopts import add_log_arguments, read_log
+
 NAME = "evaluate"
 HELP = "build from all scans but every K-th and score the held-out ones against the map"
 
 
 def add_arguments(p) -> None:
-    p.add_argument("log", help="CARMEN log, CSV scan file or ROS bag")
+    add_log_arguments(p)
     p.add_argument("--holdout", type=int, default=2, metavar="K", help="hold out every K-th scan (default 2)")
-    p.add_argument("--format", choices=["carmen", "csv", "rosbag"], help="input format (default: from the file name)")
-    p.add_argument("--max-range", type=float, help="ranges at or above this mean no return")
     p.add_argument("--tme", type=float, default=None, help="TME in the map's unit (default 0.19913)")
     p.add_argument("--resolution", type=float, default=0.05, help="occupancy-grid cell for the comparison (default 0.05)")
     p.add_argument("--json", action="store_true", help="print the scores as JSON")
@@ -23,10 +23,7 @@ def run(args) -> int:
 
     from ..build import BuildConfig
     from ..evaluate import evaluate_log
-    from ..scans.read import read_scans
-
-    kw = {"max_range": args.max_range} if args.max_range is not None else {}
-    scans = read_scans(args.log, fmt=args.format, **kw)
+    scans, _ = read_log(args)
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
     e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
     if args.json:

@@ -5,52 +5,30 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ._logopts import add_log_arguments, positive, read_log
+
 NAME = "grid"
 HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map (PGM + YAML)"
 
 
-def positive(text: str) -> float:
-    import argparse
-
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} must be a positive number")
-    return v
-
-
 def add_arguments(p) -> None:
-    p.add_argument("log", help="CARMEN log (.log or .log.gz), CSV scan file (.csv) or ROS bag")
+    add_log_arguments(p)
     p.add_argument("--out", required=True, help="folder to write NAME.pgm and NAME.yaml into")
     p.add_argument("--name", default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
     p.add_argument("--resolution", type=positive, default=0.05, help="cell side in metres (default 0.05)")
-    p.add_argument("--format", choices=["carmen", "csv", "rosbag"], help="input format (default: from the file name)")
-    p.add_argument("--max-range", type=positive, help="ranges at or above this mean no return (default: the log's largest range)")
-    p.add_argument("--skip-bad", action="store_true", help="skip malformed lines or messages (and say how many) instead of stopping")
     p.add_argument("--max-usable", type=positive, default=8.0,
                    help="longest range whose free space and hit are trusted; farther returns mark free space up to it (default 8)")
     p.add_argument("--no-return-free", type=float, default=0.0,
                    help="free range claimed along beams with no return (default 0: they mark nothing)")
     p.add_argument("--quiet", action="store_true", help="no summary")
-    from ._bagopts import add_bag_arguments
-
-    add_bag_arguments(p)
 
 
 def run(args) -> int:
     from ..grid import occupancy_grid
     from ..rosmap import write_grid
-    from ..scans.read import ReadReport, read_scans
-    from ._bagopts import bag_kwargs
 
     t0 = time.perf_counter()
-    report = ReadReport()
-    kw = {"skip_bad": args.skip_bad, **bag_kwargs(args, args.log, args.format)}
-    if args.max_range is not None:
-        kw["max_range"] = args.max_range
-    scans = read_scans(args.log, fmt=args.format, report=report, **kw)
+    scans, report = read_log(args)
     t1 = time.perf_counter()
     grid = occupancy_grid(scans, resolution=args.resolution, max_usable=args.max_usable,
                           no_return_free=args.no_return_free)
