@@ -20,6 +20,7 @@ COMMANDS = [
     "tables",
     "alpha_cut",
     "membership",
+    "plan",
     "memory",
     "grid",
     "simulate",
