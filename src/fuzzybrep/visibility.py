@@ -157,8 +157,8 @@ class Triangulation:
         dr, ar = d[rep], a[rep]
         inside = (_cross(P[p1] - ar, dr) >= 0) & (_cross(dr, P[p2] - ar) >= 0)
         rep, tri, j, p1, p2 = rep[inside], tri[inside], j[inside], p1[inside], p2[inside]
-        rep, first = np.unique(rep, return_index=True)
-        tri, j, p1, p2 = tri[first], j[first], p1[first], p2[first]
+        first = np.r_[True, rep[1:] != rep[:-1]]  # rep is sorted: keep each walk's first triangle
+        rep, tri, j, p1, p2 = rep[first], tri[first], j[first], p1[first], p2[first]
         keep = ~same[rep]
         i, tri, j, R, L = rep[keep], tri[keep], j[keep], p1[keep], p2[keep]
         # the target is one of the corner's other two vertices, or inside the first triangle
@@ -303,7 +303,7 @@ class OutsideMask:
     outside: np.ndarray  # (ny, nx) bool
 
     @classmethod
-    def of(cls, region: shapely.Geometry, max_cells: int = 1 << 18) -> "OutsideMask":
+    def of(cls, region: shapely.Geometry, max_cells: int = 1 << 20) -> "OutsideMask":
         x0, y0, x1, y1 = region.bounds
         w, h = max(x1 - x0, 1e-300), max(y1 - y0, 1e-300)
         cell = max(np.sqrt(w * h / max_cells), max(w, h) / 4096)
@@ -334,17 +334,25 @@ class OutsideMask:
         return cls(origin, float(cell), ~inside & ~g2)
 
     def blocked(self, a: np.ndarray, b: np.ndarray, samples: int = 15) -> np.ndarray:
-        """(n,) bool: some of ``samples`` points spread along segment a→b is certainly outside."""
-        ny, nx = self.outside.shape
+        """(n,) bool: one of ``samples`` points spread evenly along segment a→b is certainly
+        outside. (Trying the middle first and dropping the segments it blocks does not pay:
+        most tangent lines that are blocked are blocked near their ends, by the next bump of a
+        jagged wall, which only a walk sees.)"""
+        a = np.asarray(a, dtype=np.float64).reshape(-1, 2)
+        b = np.asarray(b, dtype=np.float64).reshape(-1, 2)
         out = np.zeros(len(a), bool)
         for t in np.arange(1, samples + 1) / (samples + 1):
-            p = (a + t * (b - a) - self.origin) / self.cell
-            ix, iy = np.floor(p[:, 0]), np.floor(p[:, 1])
-            off = (ix < 0) | (iy < 0) | (ix >= nx) | (iy >= ny)  # beyond the bounds: outside
-            ix = np.clip(ix, 0, nx - 1).astype(np.int64)
-            iy = np.clip(iy, 0, ny - 1).astype(np.int64)
-            out |= off | self.outside[iy, ix]
+            out |= self._outside(a + t * (b - a))
         return out
+
+    def _outside(self, p: np.ndarray) -> np.ndarray:
+        ny, nx = self.outside.shape
+        q = (p - self.origin) / self.cell
+        ix, iy = np.floor(q[:, 0]), np.floor(q[:, 1])
+        off = (ix < 0) | (iy < 0) | (ix >= nx) | (iy >= ny)  # beyond the bounds: outside
+        ix = np.clip(ix, 0, nx - 1).astype(np.int64)
+        iy = np.clip(iy, 0, ny - 1).astype(np.int64)
+        return off | self.outside[iy, ix]
 
 
 @dataclass(frozen=True, eq=False)
@@ -359,6 +367,7 @@ class VisibilityGraph:
 
     edges    (e, 2) vertex indices into ``triangulation.points``, each unordered pair once
     lengths  (e,) Euclidean length of each edge
+    counts   how many pairs each stage kept: tangent, walked (not ruled out by the mask), edges
     """
 
     region: shapely.Geometry
@@ -368,6 +377,7 @@ class VisibilityGraph:
     mask: OutsideMask
     edges: np.ndarray
     lengths: np.ndarray
+    counts: dict
 
     @classmethod
     def of(cls, region: shapely.Geometry) -> "VisibilityGraph":
@@ -379,17 +389,20 @@ class VisibilityGraph:
         if (vertex < 0).any():
             # cannot happen for a valid region: its triangulation has exactly its vertices
             raise ValueError(f"corner {corners.xy[np.argmax(vertex < 0)]} is no vertex of the triangulation")
-        mask = OutsideMask.of(region)
         i, j = bitangent_pairs(corners)
         keep = vertex[i] != vertex[j]  # two corners at one point (rings touching) need no edge
         i, j = i[keep], j[keep]
+        tangent = len(i)
+        # a finer mask costs more to make and saves more walks: scale it with the pairs
+        mask = OutsideMask.of(region, int(np.clip(tangent // 2, 1 << 16, 1 << 20)))
         free = ~mask.blocked(corners.xy[i], corners.xy[j])
         i, j = i[free], j[free]
         seen = tri.visible(vertex[i], corners.xy[j], vertex[j])
         u, v = vertex[i[seen]], vertex[j[seen]]
-        e = np.unique(np.column_stack((np.minimum(u, v), np.maximum(u, v))), axis=0)
+        e = np.unique(np.column_stack((np.minimum(u, v), np.maximum(u, v))), axis=0).reshape(-1, 2)
         d = tri.points[e[:, 1]] - tri.points[e[:, 0]]
-        return cls(region, tri, corners, vertex, mask, e, np.hypot(d[:, 0], d[:, 1]))
+        counts = {"corners": len(corners), "tangent": tangent, "walked": len(i), "edges": len(e)}
+        return cls(region, tri, corners, vertex, mask, e, np.hypot(d[:, 0], d[:, 1]), counts)
 
     def reach(self, point, part: int) -> tuple[np.ndarray, np.ndarray]:
         """Vertices of corners of polygon ``part`` that see ``point`` along a line tangent at the
