@@ -7,6 +7,7 @@ to the edge of the free space.
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -21,6 +22,7 @@ from conftest import log_path
 from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
+from fuzzybrep import plan as plan_module
 from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
 from fuzzybrep.plan import RADIUS_FACTOR, Planner, plan, planner, safe_region
 from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
@@ -210,6 +212,49 @@ def test_bad_arguments_are_value_errors():
         plan(U, (1, 1, 1), (9, 1))
     with pytest.raises(ValueError, match="goal"):
         plan(U, (1, 1), (math.nan, 1))
+
+
+def test_a_crisp_map_is_planned_in_as_it_is():
+    p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
+    assert p.alpha is None and p.method is None
+    assert p.length == pytest.approx(2 * math.hypot(1, 7) + 6)
+
+
+def test_planners_are_kept_with_their_map_and_share_its_alpha_cut(pillar_room):
+    a = planner(pillar_room, 0.0, 0.1)
+    assert planner(pillar_room, 0, 0.1) is a
+    assert planner(pillar_room, 0.0, 0.3).free is a.free
+    assert planner(pillar_room, 0.0, 0.1, "exact").free is not a.free
+    fz = fuzzify(BRepMap.from_shapely(U), tme=0.1)
+    planner(fz, 0.0).plan((1, 1), (9, 1))
+    n = len(plan_module._PLANNERS)
+    del fz
+    gc.collect()
+    assert len(plan_module._PLANNERS) == n - 1  # the cache does not keep a map alive
+
+
+def test_an_edge_that_fails_the_check_is_dropped_and_the_search_repeated(monkeypatch):
+    free = ROOM.difference(box(4, 2, 6, 4))
+    search = VisibilityGraph.shortest_path
+    calls = []
+
+    def through_the_pillar_first(self, s, g, part, exclude=None):
+        calls.append(exclude)
+        return np.array([s, (5.0, 3.0), g]) if len(calls) == 1 else search(self, s, g, part, exclude)
+
+    monkeypatch.setattr(VisibilityGraph, "shortest_path", through_the_pillar_first)
+    p = plan(free, (1, 3), (9, 3))
+    assert len(calls) == 2 and len(calls[1]) == 2
+    assert p.length == pytest.approx(2 * math.sqrt(10) + 2)
+    assert_safe(p, free)
+
+
+def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypatch):
+    monkeypatch.setattr(VisibilityGraph, "shortest_path", lambda *a, **k: None)
+    free = ROOM.difference(box(4, 2, 6, 4))
+    p = plan(free, (1, 3), (9, 3))
+    assert_safe(p, free)
+    assert p.length >= 2 * math.sqrt(10) + 2
 
 
 # ------------------------------------------------------------------- clearance mode

@@ -19,6 +19,8 @@ import numpy as np
 import shapely
 from scipy.spatial import Voronoi
 
+from .visibility import boundary_edges
+
 
 @dataclass(frozen=True, eq=False)
 class MedialAxis:
@@ -67,7 +69,7 @@ class MedialAxis:
         inside = shapely.contains_xy(region, v[:, 0], v[:, 1])
         keep &= inside[rv[:, 0]] & inside[rv[:, 1]]
         rv = rv[keep]
-        boundary = _boundary_segments(region)
+        boundary = shapely.linestrings(np.stack(boundary_edges(region), axis=1))
         hits = shapely.STRtree(boundary).query(shapely.linestrings(v[rv]), predicate="intersects")[0]
         rv = np.delete(rv, np.unique(hits), axis=0)
         used, edges = np.unique(rv, return_inverse=True)
@@ -89,11 +91,3 @@ def _nearest_site(vor: Voronoi, vertices: np.ndarray) -> np.ndarray:
     site_of = np.full(len(vor.vertices), -1, np.int64)
     site_of[end[end >= 0]] = site[end >= 0]
     return site_of[vertices]
-
-
-def _boundary_segments(region: shapely.Geometry) -> np.ndarray:
-    """The region's boundary edges as an array of two-point LineStrings."""
-    rings = shapely.get_rings(shapely.get_parts(region))
-    c, idx = shapely.get_coordinates(rings, return_index=True)
-    same = idx[1:] == idx[:-1]
-    return shapely.linestrings(np.stack((c[:-1][same], c[1:][same]), axis=1))

@@ -146,9 +146,11 @@ def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
 class Planner:
     """Plans paths in one safe region; build once per (α, radius, method), query many times.
 
-    free      the free space (inner α-cut, or the geometry given)
-    safe      free shrunk by ``radius`` (``safe_region``)
-    pieces    the safe region's connected pieces, largest first is not promised: in GEOS order
+    free       the free space (inner α-cut, or the geometry given)
+    safe       free shrunk by ``radius`` (``safe_region``)
+    pieces     the safe region's connected pieces (Polygons), in GEOS's order
+    tolerance  how far outside the safe region GEOS rounding may put a point of a path that is
+               accepted (RELATIVE_TOLERANCE × the map's size)
 
     The visibility graph (shortest mode) and the medial axis (clearance mode) are built on
     first use and kept.
@@ -259,11 +261,10 @@ class Planner:
                 f"{pg + 1} of {len(self.pieces)}, areas {self.pieces[ps].area:.3g} and {self.pieces[pg].area:.3g} "
                 f"{self.unit}²): no path joins them", ps, pg)
         note = None
-        if mode == "clearance":
-            path = self._clearance_path(s, g, ps)
-            if path is None:
+        path = self._clearance_path(s, g, ps) if mode == "clearance" else None
+        if path is None:
+            if mode == "clearance":
                 note = "the medial axis does not join start and goal at this spacing: shortest path instead"
-        if mode == "shortest" or path is None:
             path = self._shortest_path(s, g, ps)
         d = np.diff(path, axis=0)
         length = float(np.hypot(d[:, 0], d[:, 1]).sum())

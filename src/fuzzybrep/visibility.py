@@ -67,6 +67,8 @@ class Triangulation:
         """Index of each point of (n, 2) ``xy`` among ``points``; −1 where it is no vertex."""
         keys = _keys(self.points)
         q = _keys(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+        if len(keys) == 0:
+            return np.full(len(q), -1, np.int64)
         i = np.minimum(np.searchsorted(keys, q), len(keys) - 1)
         return np.where(keys[i] == q, i, -1)
 
@@ -199,6 +201,22 @@ class Triangulation:
         return seen
 
 
+def _ring_vertices(region: shapely.Geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every ring's vertices without the closing repeat, rings one after the other:
+    (xy (n, 2), ring index (n,), polygon index (n,))."""
+    rings, part_of = shapely.get_rings(shapely.get_parts(region), return_index=True)
+    xy, ring = shapely.get_coordinates(rings, return_index=True)
+    closing = np.r_[ring[1:] != ring[:-1], True]
+    return xy[~closing], ring[~closing], part_of[ring[~closing]].astype(np.int64)
+
+
+def boundary_edges(region: shapely.Geometry) -> tuple[np.ndarray, np.ndarray]:
+    """Every edge of every ring: (start points (e, 2), end points (e, 2))."""
+    xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(region)), return_index=True)
+    same = ring[1:] == ring[:-1]
+    return xy[:-1][same], xy[1:][same]
+
+
 def _neighbors(tri: np.ndarray, m: int) -> np.ndarray:
     """(t, 3): the triangle sharing the edge opposite each corner, −1 on the region's boundary."""
     a = tri[:, [1, 2, 0]].ravel()
@@ -232,19 +250,15 @@ class Corners:
 
     @classmethod
     def of(cls, region: shapely.Geometry) -> "Corners":
-        polys = shapely.get_parts(shapely.orient_polygons(region, exterior_cw=False))
-        rings = [(np.asarray(r.coords)[:-1], k) for k, p in enumerate(polys) for r in (p.exterior, *p.interiors)]
-        if not rings:
-            z = np.zeros((0, 2))
-            return cls(z, z, z, np.zeros(0, np.int64))
-        v = np.vstack([r for r, _ in rings])
-        sizes = np.array([len(r) for r, _ in rings])
-        part = np.repeat([k for _, k in rings], sizes)
-        start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        v, ring, part = _ring_vertices(shapely.orient_polygons(region, exterior_cw=False))
+        # each ring's vertices are contiguous: its first and last are each other's neighbours
+        first = np.r_[True, ring[1:] != ring[:-1]]
+        last = np.r_[ring[1:] != ring[:-1], True]
         idx = np.arange(len(v))
-        nxt, prv = idx + 1, idx - 1
-        nxt[start + sizes - 1] = start
-        prv[start] = start + sizes - 1
+        start = np.maximum.accumulate(np.where(first, idx, 0))
+        end = np.minimum.accumulate(np.where(last, idx, len(v))[::-1])[::-1]
+        nxt = np.where(last, start, idx + 1)
+        prv = np.where(first, end, idx - 1)
         turn = _cross(v - v[prv], v[nxt] - v)
         keep = turn <= 0  # interior on the left: a right turn (or none) is reflex (or flat)
         return cls(v[keep], v[prv][keep], v[nxt][keep], part[keep])
@@ -315,16 +329,15 @@ class OutsideMask:
         inside = shapely.intersects_xy(region, gx, gy)
         # every boundary point lies within cell/4 of a sample, so within the sample's 3×3 cells
         near = np.zeros((ny, nx), bool)
-        for ring in shapely.get_rings(shapely.get_parts(region)):
-            c = np.asarray(ring.coords)
-            seg = np.diff(c, axis=0)
-            n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / (cell / 2)), 1).astype(np.int64)
-            s = np.repeat(np.arange(len(seg)), n)
-            t = (np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)) / n[s]
-            p = c[s] + t[:, None] * seg[s]
-            ix = np.clip(((p[:, 0] - x0) / cell).astype(np.int64), 0, nx - 1)
-            iy = np.clip(((p[:, 1] - y0) / cell).astype(np.int64), 0, ny - 1)
-            near[iy, ix] = True
+        a, b = boundary_edges(region)
+        seg = b - a
+        n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / (cell / 2)), 1).astype(np.int64)
+        s = np.repeat(np.arange(len(seg)), n)
+        t = (np.arange(len(s)) - np.repeat(np.cumsum(n) - n, n)) / n[s]
+        p = a[s] + t[:, None] * seg[s]
+        ix = np.clip(((p[:, 0] - x0) / cell).astype(np.int64), 0, nx - 1)
+        iy = np.clip(((p[:, 1] - y0) / cell).astype(np.int64), 0, ny - 1)
+        near[iy, ix] = True
         grown = near.copy()
         grown[1:] |= near[:-1]
         grown[:-1] |= near[1:]
