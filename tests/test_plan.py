@@ -24,7 +24,7 @@ from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
 from fuzzybrep import plan as plan_module
 from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
-from fuzzybrep.plan import RADIUS_FACTOR, Planner, plan, planner, safe_region
+from fuzzybrep.plan import RADIUS_FACTOR, plan, planner, safe_region
 from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
 
 TOL = 1e-7
@@ -255,6 +255,7 @@ def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypat
     p = plan(free, (1, 3), (9, 3))
     assert_safe(p, free)
     assert p.length >= 2 * math.sqrt(10) + 2
+    assert "not the shortest" in p.note
 
 
 # ------------------------------------------------------------------- clearance mode

@@ -263,19 +263,22 @@ class Planner:
         note = None
         path = self._clearance_path(s, g, ps) if mode == "clearance" else None
         if path is None:
+            path, note = self._shortest_path(s, g, ps)
             if mode == "clearance":
-                note = "the medial axis does not join start and goal at this spacing: shortest path instead"
-            path = self._shortest_path(s, g, ps)
+                note = "; ".join(filter(None, ("the medial axis does not join start and goal: shortest path instead",
+                                               note)))
         d = np.diff(path, axis=0)
         length = float(np.hypot(d[:, 0], d[:, 1]).sum())
         line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
         clearance = float(shapely.distance(line, self._free_boundary)) if not self.free.is_empty else 0.0
         return Plan(path, length, mode, self.alpha, self.radius, self.method, clearance, self.unit, note)
 
-    def _shortest_path(self, s: np.ndarray, g: np.ndarray, piece: int) -> np.ndarray:
+    def _shortest_path(self, s: np.ndarray, g: np.ndarray, piece: int) -> tuple[np.ndarray, str | None]:
+        """The shortest path, checked; or, should the graph fail, a path through the
+        triangulation, with a note saying so."""
         direct = np.vstack((s, g))
         if np.array_equal(s, g) or self.covers(direct):
-            return direct
+            return direct, None
         graph = self.visibility
         exclude = np.zeros((0, 2), np.int64)
         for _ in range(8):
@@ -284,7 +287,7 @@ class Planner:
                 break
             bad = self._uncovered_segments(path)
             if not bad.any():
-                return path
+                return path, None
             # a walk misjudged by rounding: drop the offending edges and search again
             v = graph.triangulation.vertex_index(path)
             v[0], v[-1] = -1, -2
@@ -293,7 +296,8 @@ class Planner:
         if path is None or not self.covers(path):
             raise PlanError(f"no verified path found between {tuple(s)} and {tuple(g)} although both lie in "
                             f"piece {piece + 1} of the safe region{self._where()}")
-        return path
+        return path, ("the visibility graph did not join start and goal (rounding): a path through the "
+                      "triangulation instead, not the shortest")
 
     def _uncovered_segments(self, path: np.ndarray) -> np.ndarray:
         return ~shapely.covers(self._covering, shapely.linestrings(np.stack((path[:-1], path[1:]), axis=1)))
@@ -316,9 +320,11 @@ class Planner:
         vg, dvg = graph.reach(g, piece)
         lv, ln, ld = self._axis_links
         k = OFF_AXIS_COST
-        rows = np.concatenate((axis.edges[:, 0], n + graph.edges[:, 0], n + lv, np.full(len(es) + len(vs) + 1, S),
-                               eg, n + vg))
-        cols = np.concatenate((axis.edges[:, 1], n + graph.edges[:, 1], ln, es, n + vs, [G], np.full(len(eg) + len(vg), G)))
+        # nodes: medial axis 0..n-1, triangulation vertices n..n+m-1, start, goal
+        rows = np.concatenate((axis.edges[:, 0], n + graph.edges[:, 0], n + lv,
+                               np.full(len(es) + len(vs) + 1, S), eg, n + vg))
+        cols = np.concatenate((axis.edges[:, 1], n + graph.edges[:, 1], ln,
+                               es, n + vs, [G], np.full(len(eg) + len(vg), G)))
         direct = float(np.hypot(*(g - s))) if self.covers(np.vstack((s, g))) else np.inf
         w = np.concatenate((axis.lengths, k * graph.lengths, k * ld, ds, k * dvs, [k * direct], dg, k * dvg))
         ok = np.isfinite(w)
