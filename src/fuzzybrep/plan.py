@@ -35,6 +35,8 @@ QUAD_SEGS = 6
 #: the free space is buffered by radius × this, so that no point of the safe region comes
 #: nearer than the radius to its edge (``_shrink``): 2 % more margin along straight walls
 RADIUS_FACTOR = 1 / (math.cos(3 * math.pi / (8 * QUAD_SEGS)) - 1e-3)
+#: chords per quarter circle of the exact α-cut planned in (``free_space``)
+EXACT_CUT_QUAD_SEGS = 8
 #: GEOS needs a little slack: coordinates are snapped to a grid of about 1e-10 of the map's size
 #: (merging vertices that rounding left 1e-15 apart), and paths are checked against the safe
 #: region grown by ``RELATIVE_TOLERANCE`` times the map's size
@@ -80,8 +82,17 @@ class Plan:
 
 def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geometry:
     """The space free at confidence α: a fuzzy map's inner α-cut; a crisp map or a Shapely
-    (Multi)Polygon as it is (α and method do not apply to them)."""
+    (Multi)Polygon as it is (α and method do not apply to them).
+
+    The exact α-cut is drawn with ``EXACT_CUT_QUAD_SEGS`` chords per quarter circle, not the 32 of
+    ``FuzzyBRepMap.alpha_cut``: every chord's end is a reflex corner of the free space, and the
+    visibility graph's cost grows with their square (Intel, α = 0.3: 47 000 corners and 44 s
+    with 32, 14 000 and 4 s with 8). Its rounded corners are then up to 1.1 % of the α-cut's
+    distance more generous than circles (2 mm for a TME of 0.2 m).
+    """
     if isinstance(source, FuzzyBRepMap):
+        if method == "exact":
+            return source.alpha_cut(alpha, method, quad_segs=EXACT_CUT_QUAD_SEGS).inner
         return source.alpha_cut(alpha, method).inner
     if isinstance(source, BRepMap):
         return source.to_shapely()
