@@ -22,6 +22,7 @@ COMMANDS = [
     "tables",
     "alpha_cut",
     "membership",
+    "plan",
     "memory",
     "evaluate",
     "grid",

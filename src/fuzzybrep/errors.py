@@ -102,3 +102,39 @@ class BagMessageError(ScanFormatError):
 
 class BagValueError(BagMessageError, ScanValueError):
     """A message in a ROS bag holds an impossible value (a negative range)."""
+
+
+class PlanError(FuzzyBrepError, ValueError):
+    """No path can be planned: says which point or which part of the request is at fault."""
+
+
+class PointNotFreeError(PlanError):
+    """The start or the goal lies outside the safe region.
+
+    which         "start" or "goal"
+    point         (x, y) as given
+    distance      how far it is from the safe region (None when the region is empty)
+    nearest       the nearest point of the safe region (None when the region is empty)
+    alpha_needed  the smallest α at which it would be free with the same radius, when one
+                  exists and is known (None otherwise)
+    """
+
+    def __init__(self, which: str, point, message: str, distance: float | None = None, nearest=None,
+                 alpha_needed: float | None = None):
+        self.which = which
+        self.point = tuple(float(c) for c in point)
+        self.distance = distance
+        self.nearest = None if nearest is None else tuple(float(c) for c in nearest)
+        self.alpha_needed = alpha_needed
+        self.reason = message
+        super().__init__(f"{which} ({self.point[0]:g}, {self.point[1]:g}) is not free: {message}")
+
+
+class NoConnectionError(PlanError):
+    """Start and goal are both free but lie in different pieces of the safe region."""
+
+    def __init__(self, message: str, start_piece: int | None = None, goal_piece: int | None = None):
+        self.start_piece = start_piece
+        self.goal_piece = goal_piece
+        self.reason = message
+        super().__init__(message)

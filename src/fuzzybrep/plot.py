@@ -100,3 +100,35 @@ def _save(fig, path, dpi) -> None:
     ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
     fig.savefig(buf, format=ext, dpi=dpi)
     write_atomic(path, buf.getvalue())
+
+
+SAFE = "#b7e4c7"
+PATH = "#d62828"
+
+
+def save_plan_figure(path: str | os.PathLike, crisp: BRepMap, safe, plans, title: str | None = None,
+                     dpi: int = 150) -> None:
+    """A picture of planned paths: the map, the safe region they keep to, and the paths."""
+    plt = _agg()
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    x0, y0, x1, y1 = crisp.to_shapely().bounds
+    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    fig, ax = plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
+    draw_map(ax, crisp, None, title)
+    fill_geometry(ax, safe, facecolor=SAFE, edgecolor="#2d6a4f", lw=0.3, alpha=0.9)
+    handles = [Patch(facecolor=FREE, label="crisp free space"), Patch(facecolor=SAFE, label="safe region"),
+               Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"),
+               Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
+    colors = [PATH, "#6a4c93", "#1982c4"]
+    for k, p in enumerate(plans):
+        c = colors[k % len(colors)]
+        ax.plot(p.path[:, 0], p.path[:, 1], "-", color=c, lw=1.6)
+        ax.plot(*p.path[0], "o", color=c, ms=5)
+        ax.plot(*p.path[-1], "*", color=c, ms=9)
+        handles.append(Line2D([], [], color=c, lw=1.6, label=f"{p.mode} path, {p.length:.3g} {p.unit}"))
+    ax.legend(handles=handles, loc="best", fontsize=8)
+    fig.tight_layout()
+    _save(fig, path, dpi)
+    plt.close(fig)

@@ -1,0 +1,65 @@
+"""fuzzybrep plan: a path from start to goal in the space free at confidence α."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ..plan import MODES, planner
+from ._maps import add_map_argument, load_map
+from .alpha_cut import _alpha
+
+NAME = "plan"
+HELP = "plan a path that stays in the space free at confidence α, kept a robot's radius from its edge"
+
+
+def _radius(s: str) -> float:
+    try:
+        r = float(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"radius must be a number, got {s!r}") from None
+    if not r >= 0 or r == float("inf"):
+        raise argparse.ArgumentTypeError(f"radius must be a finite number ≥ 0, got {s}")
+    return r
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    add_map_argument(p)
+    p.add_argument("--start", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where the robot is")
+    p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where it should go")
+    p.add_argument("--alpha", type=_alpha, default=0.0, metavar="A",
+                   help="plan in the inner α-cut, the space free at confidence α (default 0: the support's "
+                        "inner bound, the safest)")
+    p.add_argument("--radius", type=_radius, default=0.0, metavar="R",
+                   help="the robot's radius, in the map's unit: the free space is shrunk by it (default 0)")
+    p.add_argument("--mode", choices=MODES, default="shortest",
+                   help="shortest: the exact shortest path (default); clearance: along the medial axis, "
+                        "as far from obstacles as the space allows")
+    p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
+                   help="α-cut by the thesis's sweep (default, the map's own) or by the Extension principle")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON: path, length, mode, alpha, ...")
+    p.add_argument("--plot", metavar="PNG", help="picture of the map, the safe region and the path")
+
+
+def run(args: argparse.Namespace) -> int:
+    fuzzy = load_map(args)
+    pl = planner(fuzzy, args.alpha, args.radius, args.method)
+    result = pl.plan(args.start, args.goal, args.mode)
+    if args.plot:
+        from ..plot import save_plan_figure
+
+        save_plan_figure(args.plot, fuzzy.crisp, pl.safe, [result],
+                         title=f"{result.mode} path, α = {args.alpha:g}, radius {args.radius:g} ({args.method})")
+    out = sys.stdout
+    if args.json:
+        out.write(json.dumps(result.to_json(), separators=(",", ":")) + "\n")
+        return 0
+    u = result.unit
+    out.write(f"{result.mode} path: length {result.length:.4g} {u}, {len(result.path)} points, "
+              f"clearance {result.clearance:.3g} {u} (α = {args.alpha:g}, radius {args.radius:g}, {args.method})\n")
+    if result.note:
+        out.write(f"note: {result.note}\n")
+    for x, y in result.path:
+        out.write(f"{x:.6g} {y:.6g}\n")
+    return 0

@@ -1,0 +1,492 @@
+"""Path planning in the space free at confidence α: shortest paths, and paths that keep clear.
+
+    free      = the inner α-cut: free at confidence α (principal polygon shrunk, holes grown)
+    safe      = free shrunk by the robot's radius                 (thesis 4.2: a safety margin)
+    shortest  = the reduced visibility graph of the safe region's reflex corners, searched from
+                start to goal (``visibility``)                     exact Euclidean shortest path
+    clearance = the medial axis of the safe region (the GVD of thesis 2.2.3), entered from start
+                and goal (``medial``)                              as far from obstacles as it can
+    verify    = every path returned is covered by the safe region, to within ``Planner.tolerance``
+
+``plan(map, start, goal)`` does it all; a ``Planner`` keeps the safe region and its graphs for
+many queries, and ``planner(map, α, radius)`` keeps one per (α, radius, method) and map.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import shapely
+
+from .brep import BRepMap
+from .errors import NoConnectionError, PlanError, PointNotFreeError
+from .fuzzy import METHODS, FuzzyBRepMap, _check_alpha
+from .medial import MedialAxis
+from .sweep import polygonal
+from .visibility import Triangulation, VisibilityGraph, shortest_chain
+
+MODES = ("shortest", "clearance")
+#: segments per quarter circle where the radius shrink rounds an obstacle's corner
+QUAD_SEGS = 6
+#: the free space is buffered by radius × this, so that no point of the safe region comes
+#: nearer than the radius to its edge (``_shrink``): 2 % more margin along straight walls
+RADIUS_FACTOR = 1 / (math.cos(3 * math.pi / (8 * QUAD_SEGS)) - 1e-3)
+#: chords per quarter circle of the exact α-cut planned in (``free_space``)
+EXACT_CUT_QUAD_SEGS = 8
+#: GEOS needs a little slack: coordinates are snapped to a grid of about 1e-10 of the map's size
+#: (merging vertices that rounding left 1e-15 apart), and paths are checked against the safe
+#: region grown by ``RELATIVE_TOLERANCE`` times the map's size
+RELATIVE_TOLERANCE = 1e-9
+#: clearance mode: boundary points for the medial axis, at most about this many
+_MEDIAL_SITES = 40_000
+#: clearance mode: how many nearest medial-axis nodes to try to step onto from start and goal,
+#: and from each corner
+_ENTRIES = 24
+_LINKS = 4
+#: clearance mode: a straight step off the medial axis costs this many times its length
+OFF_AXIS_COST = 4.0
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """A planned path.
+
+    path       (k, 2) from start to goal; every point and segment lies in the safe region
+    length     its Euclidean length
+    clearance  smallest distance from the path to the edge of the free space (the inner α-cut,
+               or the geometry planned in): at least ``radius``
+    note       why the path is not what ``mode`` asked for, if it is not (else None)
+    """
+
+    path: np.ndarray
+    length: float
+    mode: str
+    alpha: float | None
+    radius: float
+    method: str | None
+    clearance: float
+    unit: str = "m"
+    note: str | None = None
+
+    def to_json(self) -> dict:
+        out = {"path": self.path.tolist(), "length": self.length, "mode": self.mode, "alpha": self.alpha,
+               "radius": self.radius, "method": self.method, "clearance": self.clearance, "unit": self.unit}
+        if self.note:
+            out["note"] = self.note
+        return out
+
+
+def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geometry:
+    """The space free at confidence α: a fuzzy map's inner α-cut; a crisp map or a Shapely
+    (Multi)Polygon as it is (α and method do not apply to them).
+
+    The exact α-cut is drawn with ``EXACT_CUT_QUAD_SEGS`` chords per quarter circle, not the 32 of
+    ``FuzzyBRepMap.alpha_cut``: every chord's end is a reflex corner of the free space, and the
+    visibility graph's cost grows with their square (Intel, α = 0.3: 47 000 corners and 44 s
+    with 32, 14 000 and 4 s with 8). Its rounded corners are then up to 1.1 % of the α-cut's
+    distance more generous than circles (2 mm for a TME of 0.2 m).
+    """
+    if isinstance(source, FuzzyBRepMap):
+        if method == "exact":
+            return source.alpha_cut(alpha, method, quad_segs=EXACT_CUT_QUAD_SEGS).inner
+        return source.alpha_cut(alpha, method).inner
+    if isinstance(source, BRepMap):
+        return source.to_shapely()
+    if isinstance(source, shapely.Geometry):
+        return polygonal(shapely.make_valid(source) if not source.is_valid else source)
+    raise TypeError(f"cannot plan in a {type(source).__name__}: give a FuzzyBRepMap, a BRepMap or a Shapely polygon")
+
+
+def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep") -> shapely.Geometry:
+    """Where the centre of a round robot of ``radius`` may go: the free space at confidence α
+    (``free_space``) shrunk by the radius. Thesis 4.2: at α = 0 this is the inner bound of the
+    support, "the space that the robot can navigate freely" at the highest confidence.
+
+    ``method``: ``sweep`` (default) uses the map's own α-cut, the thesis's single normal
+    vertex method; ``exact`` the Extension principle's (the crisp map buffered).
+    """
+    return _shrink(free_space(source, alpha, method), _check_radius(radius))
+
+
+def _check_radius(radius) -> float:
+    try:
+        r = float(radius)
+    except (TypeError, ValueError):
+        raise ValueError(f"radius must be a number ≥ 0, got {radius!r}") from None
+    if not (math.isfinite(r) and r >= 0):
+        raise ValueError(f"radius must be a finite number ≥ 0, got {radius!r}")
+    return r
+
+
+def _extent(geom: shapely.Geometry) -> float:
+    if geom.is_empty:
+        return 1.0
+    x0, y0, x1, y1 = geom.bounds
+    return max(x1 - x0, y1 - y0, 1e-300)
+
+
+def _grid(extent: float) -> float:
+    # a power of two: coordinates already on it (integers, halves, ...) stay bit for bit
+    return 2.0 ** math.floor(math.log2(extent * RELATIVE_TOLERANCE / 8))
+
+
+def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
+    """free ⊖ disc(radius), never larger than the exact erosion, snapped and oriented.
+
+    GEOS's buffer rounds an obstacle's corner with chords whose ends lie on the circle, so a
+    chord's middle is only d·cos(θ/2) from the corner; θ is the corner's angle over the number
+    of chords, which GEOS rounds to the nearest integer, so θ can reach 1.5 × 90°/q (measured
+    on the Intel map: 0.957·d for q = 4, 0.989·d for q = 8). Buffering by
+    d = radius / (cos(3π/8q) − 10⁻³) keeps every point at least ``radius`` from the edge of the
+    free space. (GEOS also simplifies its input first, but only where that moves the curve away.)
+    """
+    extent = _extent(free)
+    if radius > 0:
+        free = shapely.buffer(free, -radius * RADIUS_FACTOR, quad_segs=QUAD_SEGS)
+    safe = polygonal(shapely.set_precision(polygonal(free), _grid(extent)))
+    # keep the snapped coordinates but not GEOS's fixed precision model: with it, a later
+    # buffer by the tolerance can drop a hole (GEOS 3.14)
+    safe = shapely.set_precision(safe, 0)
+    return shapely.orient_polygons(safe, exterior_cw=False) if not safe.is_empty else safe
+
+
+class Planner:
+    """Plans paths in one safe region; build once per (α, radius, method), query many times.
+
+    free       the free space (inner α-cut, or the geometry given)
+    safe       free shrunk by ``radius`` (``safe_region``)
+    pieces     the safe region's connected pieces (Polygons), in GEOS's order
+    tolerance  how far outside the safe region GEOS rounding may put a point of a path that is
+               accepted (RELATIVE_TOLERANCE × the map's size)
+
+    The visibility graph (shortest mode) and the medial axis (clearance mode) are built on
+    first use and kept.
+    """
+
+    def __init__(self, free: shapely.Geometry, radius: float = 0.0, *, alpha: float | None = None,
+                 method: str | None = None, fuzzy: FuzzyBRepMap | None = None, unit: str = "m",
+                 spacing: float | None = None):
+        self.radius = _check_radius(radius)
+        self.alpha = alpha
+        self.method = method
+        # weakly: a planner kept with its map (``planner``) must not keep the map alive
+        self._fuzzy = None if fuzzy is None else weakref.ref(fuzzy)
+        self.unit = fuzzy.unit if fuzzy is not None else unit
+        self.free = polygonal(free)
+        self.safe = _shrink(self.free, self.radius)
+        self.pieces = shapely.get_parts(self.safe)
+        shapely.prepare(self.safe)
+        shapely.prepare(self.pieces)
+        self.extent = _extent(self.free)
+        self.tolerance = RELATIVE_TOLERANCE * self.extent
+        self._spacing = spacing
+
+    @classmethod
+    def of(cls, source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep", **kw) -> "Planner":
+        """A planner for a fuzzy map at α (or for a crisp map or polygon, where α does not apply)."""
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        fuzzy = source if isinstance(source, FuzzyBRepMap) else None
+        alpha = _check_alpha(alpha) if fuzzy is not None else None
+        unit = source.unit if isinstance(source, (FuzzyBRepMap, BRepMap)) else kw.pop("unit", "m")
+        return cls(free_space(source, alpha or 0.0, method), radius, alpha=alpha,
+                   method=method if fuzzy is not None else None, fuzzy=fuzzy, unit=unit, **kw)
+
+    @property
+    def fuzzy(self) -> FuzzyBRepMap | None:
+        """The fuzzy map planned in, while it lives (it explains why a point is not free)."""
+        return None if self._fuzzy is None else self._fuzzy()
+
+    # -- the graphs, built on first use ------------------------------------------------------
+
+    @cached_property
+    def visibility(self) -> VisibilityGraph:
+        return VisibilityGraph.of(self.safe)
+
+    @cached_property
+    def spacing(self) -> float:
+        """Distance between the boundary points the medial axis is made from."""
+        if self._spacing is not None:
+            return float(self._spacing)
+        return max(self.safe.length / _MEDIAL_SITES, self.extent / 2000)
+
+    @cached_property
+    def medial(self) -> MedialAxis:
+        return MedialAxis.of(self.safe, self.spacing)
+
+    @cached_property
+    def _medial_tree(self):
+        from scipy.spatial import cKDTree
+
+        return cKDTree(self.medial.nodes) if len(self.medial.nodes) else None
+
+    @cached_property
+    def _triangulation(self) -> Triangulation:
+        return self.visibility.triangulation if "visibility" in self.__dict__ else Triangulation.of(self.safe)
+
+    @cached_property
+    def _covering(self) -> shapely.Geometry:
+        g = shapely.buffer(self.safe, self.tolerance, quad_segs=1)
+        shapely.prepare(g)
+        return g
+
+    @cached_property
+    def _free_boundary(self) -> shapely.Geometry:
+        return shapely.boundary(self.free)
+
+    # -- queries ----------------------------------------------------------------------------
+
+    def piece(self, point, which: str = "point") -> int:
+        """Index of the piece of the safe region holding ``point`` (its boundary included);
+        PointNotFreeError saying why and how far off if none does."""
+        p = _point(point, which)
+        inside = np.flatnonzero(shapely.intersects_xy(self.pieces, p[0], p[1]))
+        if len(inside) == 0:
+            raise self._not_free(which, p)
+        return int(inside[0])
+
+    def covers(self, path) -> bool:
+        """Whether the polyline lies in the safe region (grown by ``tolerance`` for GEOS)."""
+        path = np.asarray(path, dtype=np.float64)
+        line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
+        return bool(shapely.covers(self._covering, line))
+
+    def plan(self, start, goal, mode: str = "shortest") -> Plan:
+        """The shortest path (``mode="shortest"``) or one along the medial axis
+        (``mode="clearance"``) from start to goal inside the safe region.
+
+        Raises PointNotFreeError if start or goal is not in the safe region, NoConnectionError
+        if they lie in different pieces of it.
+        """
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        s, g = _point(start, "start"), _point(goal, "goal")
+        ps, pg = self.piece(s, "start"), self.piece(g, "goal")
+        if ps != pg:
+            raise NoConnectionError(
+                f"start and goal lie in different pieces of the safe region{self._where()} (pieces {ps + 1} and "
+                f"{pg + 1} of {len(self.pieces)}, areas {self.pieces[ps].area:.3g} and {self.pieces[pg].area:.3g} "
+                f"{self.unit}²): no path joins them", ps, pg)
+        note = None
+        path = self._clearance_path(s, g, ps) if mode == "clearance" else None
+        if path is None:
+            path, note = self._shortest_path(s, g, ps)
+            if mode == "clearance":
+                note = "; ".join(filter(None, ("the medial axis does not join start and goal: shortest path instead",
+                                               note)))
+        d = np.diff(path, axis=0)
+        length = float(np.hypot(d[:, 0], d[:, 1]).sum())
+        line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
+        clearance = float(shapely.distance(line, self._free_boundary)) if not self.free.is_empty else 0.0
+        return Plan(path, length, mode, self.alpha, self.radius, self.method, clearance, self.unit, note)
+
+    def _shortest_path(self, s: np.ndarray, g: np.ndarray, piece: int) -> tuple[np.ndarray, str | None]:
+        """The shortest path, checked; or, should the graph fail, a path through the
+        triangulation, with a note saying so."""
+        direct = np.vstack((s, g))
+        if np.array_equal(s, g) or self.covers(direct):
+            return direct, None
+        graph = self.visibility
+        exclude = np.zeros((0, 2), np.int64)
+        for _ in range(8):
+            path = graph.shortest_path(s, g, piece, exclude)
+            if path is None:
+                break
+            bad = self._uncovered_segments(path)
+            if not bad.any():
+                return path, None
+            # a walk misjudged by rounding: drop the offending edges and search again
+            v = graph.triangulation.vertex_index(path)
+            v[0], v[-1] = -1, -2
+            exclude = np.vstack((exclude, np.column_stack((v[:-1], v[1:]))[bad]))
+        path = self._triangulation.channel(s, g)
+        if path is None or not self.covers(path):
+            raise PlanError(f"no verified path found between {tuple(s)} and {tuple(g)} although both lie in "
+                            f"piece {piece + 1} of the safe region{self._where()}")
+        return path, ("the visibility graph did not join start and goal (rounding): a path through the "
+                      "triangulation instead, not the shortest")
+
+    def _uncovered_segments(self, path: np.ndarray) -> np.ndarray:
+        return ~shapely.covers(self._covering, shapely.linestrings(np.stack((path[:-1], path[1:]), axis=1)))
+
+    def _clearance_path(self, s: np.ndarray, g: np.ndarray, piece: int) -> np.ndarray | None:
+        """The cheapest path when moving along the medial axis costs its length and any straight
+        step off it (between corners of the visibility graph, from a corner onto the axis, or
+        from start to goal) costs ``OFF_AXIS_COST`` times its length; stepping from start and
+        goal onto the axis costs its length. So the path keeps to the axis, and leaves it only
+        where the axis breaks (a pinch of the safe region narrower than the spacing) or where
+        following it would be a long way round."""
+        axis, graph = self.medial, self.visibility
+        if len(axis.nodes) == 0:
+            return None
+        n, m = len(axis.nodes), len(graph.triangulation.points)
+        S, G = n + m, n + m + 1
+        es, ds = self._entries(s)
+        eg, dg = self._entries(g)
+        vs, dvs = graph.reach(s, piece)
+        vg, dvg = graph.reach(g, piece)
+        lv, ln, ld = self._axis_links
+        k = OFF_AXIS_COST
+        # nodes: medial axis 0..n-1, triangulation vertices n..n+m-1, start, goal
+        rows = np.concatenate((axis.edges[:, 0], n + graph.edges[:, 0], n + lv,
+                               np.full(len(es) + len(vs) + 1, S), eg, n + vg))
+        cols = np.concatenate((axis.edges[:, 1], n + graph.edges[:, 1], ln,
+                               es, n + vs, [G], np.full(len(eg) + len(vg), G)))
+        direct = float(np.hypot(*(g - s))) if self.covers(np.vstack((s, g))) else np.inf
+        w = np.concatenate((axis.lengths, k * graph.lengths, k * ld, ds, k * dvs, [k * direct], dg, k * dvg))
+        ok = np.isfinite(w)
+        chain = shortest_chain(rows[ok], cols[ok], w[ok], n + m + 2, S, G)
+        if chain is None:
+            return None
+        path = np.vstack((s, np.vstack((axis.nodes, graph.triangulation.points))[chain[1:-1]], g))
+        # the axis zigzags by about the spacing: straighten within it where that stays inside
+        smooth = np.asarray(shapely.simplify(shapely.linestrings(path), self.spacing).coords)
+        for candidate in (smooth, path):
+            if self.covers(candidate):
+                return candidate
+        return None
+
+    @cached_property
+    def _axis_links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each corner of the visibility graph joined to the nearest medial-axis nodes it sees:
+        (corner vertices, axis nodes, lengths)."""
+        graph, axis = self.visibility, self.medial
+        v = np.unique(graph.vertex)
+        k = min(_LINKS, len(axis.nodes))
+        d, i = self._medial_tree.query(graph.triangulation.points[v], k=k)
+        v, d, i = np.repeat(v, k), d.reshape(-1), i.reshape(-1)
+        seen = graph.triangulation.visible(v, axis.nodes[i])
+        return v[seen], i[seen], d[seen]
+
+    def _entries(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest medial-axis nodes that ``p`` sees, and their distances."""
+        k = min(_ENTRIES, len(self.medial.nodes))
+        d, i = self._medial_tree.query(p, k=k)
+        d, i = np.atleast_1d(d), np.atleast_1d(i)
+        segs = shapely.linestrings(np.stack((np.broadcast_to(p, (k, 2)), self.medial.nodes[i]), axis=1))
+        ok = shapely.covers(self._covering, segs)
+        return i[ok], d[ok]
+
+    # -- messages ---------------------------------------------------------------------------
+
+    def _where(self) -> str:
+        parts = []
+        if self.alpha is not None:
+            parts.append(f"α = {self.alpha:g}")
+        parts.append(f"radius {self.radius:g}")
+        if self.method is not None:
+            parts.append(self.method)
+        return f" ({', '.join(parts)})"
+
+    def _not_free(self, which: str, p: np.ndarray) -> PointNotFreeError:
+        pt = shapely.Point(p)
+        if self.safe.is_empty:
+            return PointNotFreeError(which, p, f"the safe region{self._where()} is empty")
+        nearest = np.asarray(shapely.shortest_line(pt, self.safe).coords)[1]
+        distance = float(shapely.distance(pt, self.safe))
+        why, alpha_needed = self._why_not_free(p, pt)
+        return PointNotFreeError(which, p, f"{why}; the nearest free point is ({nearest[0]:.4g}, {nearest[1]:.4g}), "
+                                           f"{distance:.3g} {self.unit} away", distance, nearest, alpha_needed)
+
+    def _why_not_free(self, p: np.ndarray, pt: shapely.Point) -> tuple[str, float | None]:
+        r = self.radius
+        in_free = bool(shapely.intersects(self.free, pt))
+        fuzzy = self.fuzzy
+        if fuzzy is None:
+            if not in_free:
+                return "it lies outside the free space", None
+            return f"it is closer than the radius {r:g} to the edge of the free space", None
+        crisp = fuzzy.crisp_geometry
+        if not shapely.intersects(crisp, pt):
+            shells = [shapely.Polygon(reg.shell.closed_coords()) for reg in fuzzy.crisp.regions]
+            if any(s.intersects(pt) for s in shells):
+                return "it lies inside an obstacle (a hole of the map)", None
+            return "it lies outside the map", None
+        if shapely.distance(pt, shapely.boundary(crisp)) < r:
+            return (f"it is closer than the radius {r:g} to the crisp boundary, so no α frees it "
+                    f"(α = 1 is the crisp map)"), None
+        need = self._alpha_needed(fuzzy, p)
+        if not in_free:
+            mu = float(fuzzy.membership(p[None], self.method or "sweep")[0])
+            why = (f"it lies in the fuzzy boundary's band at α = {self.alpha:g} (μ = {mu:.3g} there)")
+        else:
+            why = f"it is closer than the radius {r:g} to the edge of the space free at α = {self.alpha:g}"
+        if need is not None and need > (self.alpha or 0.0):
+            why += f"; it is free from about α = {need:.3g} on" + (f" with radius {r:g}" if r > 0 else "")
+        return why, need
+
+    def _alpha_needed(self, fuzzy: FuzzyBRepMap, p: np.ndarray) -> float | None:
+        """About the smallest α at which ``p`` is safe: the largest μ over the robot's disc.
+
+        For a point of the crisp free space, μ is the largest α at which it is still outside the
+        inner α-cut, so the disc fits in the inner α-cut from α = max μ over the disc on.
+        Sampled on rings of the disc: an estimate, not a bound.
+        """
+        r = self.radius
+        pts = [p[None]]
+        for frac, n in ((1.0, 48), (2 / 3, 32), (1 / 3, 16)):
+            if r > 0:
+                a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+                pts.append(p + frac * r * np.column_stack((np.cos(a), np.sin(a))))
+        mu = fuzzy.membership(np.vstack(pts), self.method or "sweep")
+        return float(mu.max()) if mu.max() < 1 else None
+
+
+def _point(point, which: str) -> np.ndarray:
+    try:
+        p = np.asarray(point, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{which} must be a point (x, y), got {point!r}") from None
+    if p.shape != (2,) or not np.isfinite(p).all():
+        raise ValueError(f"{which} must be a point (x, y) of two finite numbers, got {point!r}")
+    return p
+
+
+_PLANNERS: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary()
+#: planners kept per map (each holds its graphs); the oldest goes first
+_KEEP = 8
+
+
+def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep") -> Planner:
+    """A planner for a map at (α, radius, method), kept with the map while it lives so that its
+    α-cut and graphs are built once (α-cuts are shared between radii). Shapely geometries get
+    a new planner each time: keep it yourself."""
+    if not isinstance(source, (FuzzyBRepMap, BRepMap)):
+        return Planner.of(source, alpha, radius, method)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    fuzzy = source if isinstance(source, FuzzyBRepMap) else None
+    a = _check_alpha(alpha) if fuzzy is not None else None
+    m = method if fuzzy is not None else None
+    r = _check_radius(radius)
+    cache = _PLANNERS.setdefault(source, {"free": {}, "planners": {}})
+    cuts, planners = cache["free"], cache["planners"]
+    if (a, r, m) not in planners:
+        free = cuts.pop((a, m), None)
+        cuts[(a, m)] = free if free is not None else free_space(source, a or 0.0, method)
+        planners[(a, r, m)] = Planner(cuts[(a, m)], r, alpha=a, method=m, fuzzy=fuzzy, unit=source.unit)
+        for kept in (cuts, planners):
+            while len(kept) > _KEEP:
+                del kept[next(iter(kept))]
+    return planners[(a, r, m)]
+
+
+def plan(source, start, goal, alpha: float = 0.0, radius: float = 0.0, mode: str = "shortest",
+         method: str = "sweep") -> Plan:
+    """Plan a path from ``start`` to ``goal`` in the space a fuzzy map holds free at confidence α,
+    kept ``radius`` from its edge (``safe_region``).
+
+    source  a FuzzyBRepMap (planned in its inner α-cut), a BRepMap or a Shapely (Multi)Polygon
+            (planned in as given; α and method do not apply)
+    mode    ``shortest``: the exact Euclidean shortest path (visibility graph);
+            ``clearance``: along the medial axis, as far from obstacles as the region allows
+    method  α-cut by the thesis's ``sweep`` (default, the map's own) or ``exact``
+    """
+    return planner(source, alpha, radius, method).plan(start, goal, mode)
+
+
+__all__ = ["MODES", "Plan", "Planner", "free_space", "plan", "planner", "safe_region"]

@@ -1,0 +1,470 @@
+"""Path planning: known shortest paths, refusals, connections, clearance, and real maps.
+
+Every path is checked against the safe region independently of the planner: covered by the
+inner α-cut shrunk by the radius (grown by GEOS's tolerance), and never nearer than the radius
+to the edge of the free space.
+"""
+
+from __future__ import annotations
+
+import gc
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from conftest import log_path
+from fuzzybrep.brep import BRepMap
+from fuzzybrep.cli import main
+from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
+from fuzzybrep import plan as plan_module
+from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
+from fuzzybrep.plan import RADIUS_FACTOR, plan, planner, safe_region
+from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
+
+TOL = 1e-7
+
+
+def box(x0, y0, x1, y1):
+    return shapely.box(x0, y0, x1, y1)
+
+
+_GROWN: dict[int, tuple] = {}
+
+
+def _grown(free):
+    """free grown by TOL, and its boundary, prepared: computed once per region."""
+    if id(free) not in _GROWN:
+        grown, edge = shapely.buffer(free, TOL), free.boundary
+        shapely.prepare(grown)
+        _GROWN[id(free)] = (free, grown, edge)  # holding free keeps its id from being reused
+    return _GROWN[id(free)][1:]
+
+
+def assert_safe(p, free, radius: float = 0.0) -> None:
+    """The path lies in ``free`` shrunk by ``radius`` (checked without the planner's own region)."""
+    grown, edge = _grown(free)
+    line = shapely.LineString(p.path)
+    assert shapely.covers(grown, line), "path leaves the free space"
+    if radius > 0:
+        assert shapely.distance(line, edge) >= radius - TOL, "path comes nearer the edge than the radius"
+        assert p.clearance >= radius - TOL
+    assert p.length == pytest.approx(line.length)
+
+
+def hull_chain_length(obstacle, s, g) -> float:
+    """Shortest way round one convex obstacle: the shorter chain of hull(obstacle ∪ {s, g})."""
+    hull = shapely.MultiPoint([*obstacle.exterior.coords, s, g]).convex_hull.exterior
+    a, b = hull.project(shapely.Point(s)), hull.project(shapely.Point(g))
+    chain = abs(a - b)
+    return min(chain, hull.length - chain)
+
+
+# ------------------------------------------------------------------- known shortest paths
+
+U = shapely.difference(box(0, 0, 10, 10), box(2, 0, 8, 8))  # two arms joined along the top
+
+
+def test_u_corridor_path_wraps_both_inner_corners():
+    p = plan(U, (1, 1), (9, 1))
+    assert p.length == pytest.approx(2 * math.hypot(1, 7) + 6, rel=1e-12)
+    np.testing.assert_allclose(p.path, [(1, 1), (2, 8), (8, 8), (9, 1)])
+    assert p.mode == "shortest" and p.alpha is None and p.radius == 0
+    assert p.clearance == pytest.approx(0, abs=1e-12)
+    assert_safe(p, U)
+
+
+def test_direct_line_when_in_sight_and_start_equal_goal():
+    p = plan(U, (0.5, 0.5), (1.5, 9.5))
+    assert len(p.path) == 2 and p.length == pytest.approx(math.hypot(1, 9))
+    q = plan(U, (1, 1), (1, 1))
+    assert q.length == 0 and len(q.path) == 2
+
+
+ROOM = box(0, 0, 10, 6)
+
+
+def test_room_with_a_pillar_path_length_is_analytic():
+    pillar = box(4, 2, 6, 4)
+    free = ROOM.difference(pillar)
+    s, g = (1, 3), (9, 3)
+    p = plan(free, s, g)
+    assert p.length == pytest.approx(2 * math.sqrt(10) + 2, rel=1e-12)
+    assert len(p.path) == 4
+    assert_safe(p, free)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n=st.integers(3, 12), turn=st.floats(0, 2 * math.pi), size=st.floats(0.3, 1.8),
+       sy=st.floats(1.0, 5.0), gy=st.floats(1.0, 5.0))
+def test_way_round_a_convex_pillar_is_the_shorter_hull_chain(n, turn, size, sy, gy):
+    a = turn + np.arange(n) * 2 * math.pi / n
+    pillar = shapely.Polygon(np.column_stack((5 + size * np.cos(a), 3 + size * np.sin(a))))
+    free = box(-10, -10, 20, 16).difference(pillar)  # walls far enough not to matter
+    s, g = (1.0, sy), (9.0, gy)
+    p = plan(free, s, g)
+    expected = hull_chain_length(pillar, s, g) if shapely.LineString([s, g]).intersects(pillar) else math.dist(s, g)
+    assert p.length == pytest.approx(expected, rel=1e-9, abs=1e-9)
+    assert_safe(p, free)
+
+
+def test_safe_region_shrinks_by_the_radius_and_no_more_than_two_percent_more():
+    free = ROOM.difference(box(4, 2, 6, 4))
+    safe = safe_region(free, radius=0.5)
+    assert shapely.covers(shapely.buffer(free, -0.5 + TOL, quad_segs=64), safe)  # never nearer than 0.5
+    pts = shapely.get_coordinates(shapely.segmentize(safe.boundary, 0.05))
+    d = shapely.distance(shapely.points(pts), free.boundary)
+    assert d.min() >= 0.5 - TOL and d.max() <= 0.5 * 1.021 + TOL
+
+
+def test_radius_keeps_the_path_off_the_corners():
+    free = ROOM.difference(box(4, 2, 6, 4))
+    p = plan(free, (1, 3), (9, 3), radius=0.3)
+    assert_safe(p, free, 0.3)
+    assert p.length > 2 * math.sqrt(10) + 2  # the way round is longer with a body
+
+
+# ------------------------------------------------------------------- refusals and connections
+
+
+@pytest.fixture(scope="module")
+def pillar_room() -> FuzzyBRepMap:
+    """A 10 × 6 m room with a 2 × 2 m pillar, TME 0.2 m."""
+    return fuzzify(BRepMap.from_shapely(ROOM.difference(box(4, 2, 6, 4))), tme=0.2)
+
+
+def test_refuses_a_start_inside_an_obstacle(pillar_room):
+    with pytest.raises(PointNotFreeError, match="inside an obstacle") as e:
+        plan(pillar_room, (5, 3), (1, 1))
+    assert e.value.which == "start" and e.value.alpha_needed is None
+    # 1 m to the pillar's face, plus the sweep's offset there: corners move TME along the
+    # bisector, so a square's faces move TME·sin 45° (docs/fuzzy.md, normal vertex)
+    assert e.value.distance == pytest.approx(1 + 0.2 / math.sqrt(2), rel=1e-9)
+    assert isinstance(e.value, PlanError) and isinstance(e.value, FuzzyBrepError)
+
+
+def test_refuses_a_goal_outside_the_map(pillar_room):
+    with pytest.raises(PointNotFreeError, match="goal .* outside the map"):
+        plan(pillar_room, (1, 1), (12, 3))
+
+
+def test_refuses_a_point_in_the_support_band_and_says_which_alpha_frees_it(pillar_room):
+    # the sweep moves the room's corners 0.2 along their bisectors, so its walls move
+    # d = 0.2·sin 45° at α = 0 and (1 − α)·d at α: a point 0.1 from a wall is free from
+    # α = 1 − 0.1/d on, and 0.1 short of the safe region at α = 0
+    d = 0.2 / math.sqrt(2)
+    with pytest.raises(PointNotFreeError, match="band") as e:
+        plan(pillar_room, (1, 0.1), (1, 1))
+    assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=1e-6)
+    assert e.value.distance == pytest.approx(d - 0.1, abs=1e-6)
+    assert f"free from about α = {1 - 0.1 / d:.3g} on" in str(e.value)
+    assert plan(pillar_room, (1, 0.1), (1, 1), alpha=0.3).length == pytest.approx(0.9)
+
+
+def test_refuses_a_point_the_radius_pushes_out(pillar_room):
+    with pytest.raises(PointNotFreeError, match="closer than the radius 0.3") as e:
+        plan(pillar_room, (1, 0.4), (1, 1), radius=0.3)
+    # the wall is d = 0.2·sin 45° in at α = 0 (see above), the radius 2 % more (``_shrink``)
+    d = 0.2 / math.sqrt(2)
+    assert e.value.distance == pytest.approx(d + 0.3 * RADIUS_FACTOR - 0.4, abs=1e-6)
+    assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=0.01)  # the disc's edge 0.1 from the wall
+    with pytest.raises(PointNotFreeError, match="no α frees it"):
+        plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
+
+
+def test_disconnected_pieces_are_no_connection():
+    two_rooms = shapely.union(box(0, 0, 4, 4), box(5, 0, 9, 4))
+    with pytest.raises(NoConnectionError, match="different pieces") as e:
+        plan(two_rooms, (1, 1), (8, 1))
+    assert {e.value.start_piece, e.value.goal_piece} == {0, 1}
+
+
+DOOR = shapely.union_all([box(0, 0, 4, 4), box(4, 1.7, 5, 2.3), box(5, 0, 9, 4)])  # a 0.6 m door
+
+
+def test_radius_closes_a_narrow_door():
+    p = plan(DOOR, (1, 1), (8, 1), radius=0.25)
+    assert_safe(p, DOOR, 0.25)
+    with pytest.raises(NoConnectionError):
+        plan(DOOR, (1, 1), (8, 1), radius=0.35)
+
+
+def test_support_closes_a_door_the_crisp_map_leaves_open():
+    # the door's corners move 0.5 along their bisectors, its walls 0.5·sin 45° = 0.35 each
+    fz = fuzzify(BRepMap.from_shapely(DOOR), tme=0.5)
+    with pytest.raises(NoConnectionError, match="α = 0"):
+        plan(fz, (1, 1), (8, 1))
+    p = plan(fz, (1, 1), (8, 1), alpha=0.9)
+    assert_safe(p, fz.alpha_cut(0.9).inner)
+
+
+def test_bad_arguments_are_value_errors():
+    with pytest.raises(ValueError, match="mode"):
+        plan(U, (1, 1), (9, 1), mode="fastest")
+    with pytest.raises(ValueError, match="radius"):
+        plan(U, (1, 1), (9, 1), radius=-1)
+    with pytest.raises(ValueError, match="start"):
+        plan(U, (1, 1, 1), (9, 1))
+    with pytest.raises(ValueError, match="goal"):
+        plan(U, (1, 1), (math.nan, 1))
+
+
+def test_a_crisp_map_is_planned_in_as_it_is():
+    p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
+    assert p.alpha is None and p.method is None
+    assert p.length == pytest.approx(2 * math.hypot(1, 7) + 6)
+
+
+def test_planners_are_kept_with_their_map_and_share_its_alpha_cut(pillar_room):
+    a = planner(pillar_room, 0.0, 0.1)
+    assert planner(pillar_room, 0, 0.1) is a
+    assert planner(pillar_room, 0.0, 0.3).free is a.free
+    assert planner(pillar_room, 0.0, 0.1, "exact").free is not a.free
+    fz = fuzzify(BRepMap.from_shapely(U), tme=0.1)
+    planner(fz, 0.0).plan((1, 1), (9, 1))
+    n = len(plan_module._PLANNERS)
+    del fz
+    gc.collect()
+    assert len(plan_module._PLANNERS) == n - 1  # the cache does not keep a map alive
+
+
+def test_an_edge_that_fails_the_check_is_dropped_and_the_search_repeated(monkeypatch):
+    free = ROOM.difference(box(4, 2, 6, 4))
+    search = VisibilityGraph.shortest_path
+    calls = []
+
+    def through_the_pillar_first(self, s, g, part, exclude=None):
+        calls.append(exclude)
+        return np.array([s, (5.0, 3.0), g]) if len(calls) == 1 else search(self, s, g, part, exclude)
+
+    monkeypatch.setattr(VisibilityGraph, "shortest_path", through_the_pillar_first)
+    p = plan(free, (1, 3), (9, 3))
+    assert len(calls) == 2 and len(calls[1]) == 2
+    assert p.length == pytest.approx(2 * math.sqrt(10) + 2)
+    assert_safe(p, free)
+
+
+def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypatch):
+    monkeypatch.setattr(VisibilityGraph, "shortest_path", lambda *a, **k: None)
+    free = ROOM.difference(box(4, 2, 6, 4))
+    p = plan(free, (1, 3), (9, 3))
+    assert_safe(p, free)
+    assert p.length >= 2 * math.sqrt(10) + 2
+    assert "not the shortest" in p.note
+
+
+# ------------------------------------------------------------------- clearance mode
+
+L_CORRIDOR = shapely.union(box(0, 0, 2, 10), box(0, 8, 12, 10))  # 2 m wide, turning right
+
+
+def test_clearance_mode_keeps_further_from_the_walls_than_shortest_mode():
+    s, g = (1, 1), (11, 9)  # on the centre line
+    short = plan(L_CORRIDOR, s, g)
+    clear = plan(L_CORRIDOR, s, g, mode="clearance")
+    assert_safe(short, L_CORRIDOR)
+    assert_safe(clear, L_CORRIDOR)
+    assert short.clearance == pytest.approx(0, abs=1e-12)  # it cuts the inner corner
+    assert clear.clearance > 0.9  # the centre line is 1 m from both walls; the turn cuts a little
+    assert clear.note is None and clear.mode == "clearance"
+    assert short.length < clear.length < 1.2 * short.length
+
+
+def test_clearance_mode_with_a_radius_stays_inside(pillar_room):
+    p = plan(pillar_room, (1, 3), (9, 3), radius=0.3, mode="clearance")
+    assert_safe(p, pillar_room.alpha_cut(0).inner, 0.3)
+    assert p.clearance > 0.6  # between pillar and wall the middle is 1 m from each
+
+
+# ------------------------------------------------------------------- visibility walks
+
+
+def jagged_room(seed: int = 3) -> shapely.Geometry:
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0.5, 19.5, (60, 2))
+    w = rng.uniform(0.1, 0.8, (60, 2))
+    clutter = shapely.union_all(shapely.box(*(c - w).T, *(c + w).T))
+    a = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    wall = shapely.Polygon(np.column_stack((10 + (9.8 + 0.3 * np.sin(7 * a)) * np.cos(a),
+                                            10 + (9.8 + 0.3 * np.sin(7 * a)) * np.sin(a))))
+    return shapely.orient_polygons(wall.difference(clutter))
+
+
+def test_walks_agree_with_geos_on_a_cluttered_room():
+    region = max(shapely.get_parts(jagged_room()), key=lambda g: g.area)
+    tri = Triangulation.of(region)
+    v = tri.points
+    rng = np.random.default_rng(0)
+    i, j = rng.integers(0, len(v), 3000), rng.integers(0, len(v), 3000)
+    seen = tri.visible(i, v[j], j)
+    covered = shapely.covers(shapely.buffer(region, TOL), shapely.linestrings(np.stack((v[i], v[j]), axis=1)))
+    assert not (seen & ~covered).any()  # a walk never sees through a wall
+    # and sees everything GEOS covers, but for segments through a vertex (blocked by convention)
+    d = v[j] - v[i]
+    through = np.zeros(len(i), bool)
+    for k in np.flatnonzero(covered & ~seen):
+        rel = v - v[i[k]]
+        cross = rel[:, 0] * d[k, 1] - rel[:, 1] * d[k, 0]
+        t = rel @ d[k] / (d[k] @ d[k])
+        through[k] = ((np.abs(cross) <= 1e-9 * (d[k] @ d[k])) & (t > 1e-12) & (t < 1 - 1e-12)).any()
+    assert (~seen & covered <= through).all()
+    assert seen.sum() > 100
+
+
+def test_visibility_graph_edges_are_inside_and_tangent():
+    region = max(shapely.get_parts(jagged_room()), key=lambda g: g.area)
+    graph = VisibilityGraph.of(region)
+    pts = graph.triangulation.points
+    segs = shapely.linestrings(np.stack((pts[graph.edges[:, 0]], pts[graph.edges[:, 1]]), axis=1))
+    assert shapely.covers(shapely.buffer(region, TOL), segs).all()
+    assert len(graph.edges) > len(Corners.of(region))
+
+
+# ------------------------------------------------------------------- command line
+
+
+@pytest.fixture(scope="module")
+def room_file(tmp_path_factory, pillar_room):
+    path = tmp_path_factory.mktemp("plan") / "room.json"
+    pillar_room.save(path)
+    return path
+
+
+def test_cli_json_and_plot(room_file, tmp_path, capsys):
+    png = tmp_path / "plan.png"
+    assert main(["plan", str(room_file), "--start", "1", "3", "--goal", "9", "3", "--radius", "0.1", "--json",
+                 "--plot", str(png)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["mode"] == "shortest" and out["alpha"] == 0 and out["radius"] == 0.1 and out["method"] == "sweep"
+    path = np.array(out["path"])
+    assert path[0].tolist() == [1, 3] and path[-1].tolist() == [9, 3]
+    assert out["length"] == pytest.approx(shapely.LineString(path).length)
+    assert out["clearance"] >= 0.1 - TOL
+    assert png.stat().st_size > 10_000
+
+
+def test_cli_text_and_clearance_mode(room_file, capsys):
+    assert main(["plan", str(room_file), "--start", "1", "3", "--goal", "9", "3", "--mode", "clearance",
+                 "--method", "exact", "--alpha", "0.5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("clearance path: length ") and "α = 0.5" in lines[0] and "exact" in lines[0]
+    assert lines[1] == "1 3" and lines[-1] == "9 3"
+
+
+def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
+    assert main(["plan", str(room_file), "--start", "5", "3", "--goal", "9", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith("fuzzybrep plan: error: start (5, 3) is not free: it lies inside an obstacle")
+
+
+# ------------------------------------------------------------------- real maps
+
+REAL = ["intel", "aces"]
+if os.environ.get("FUZZYBREP_SLOW_TESTS"):
+    REAL.append("freiburg")  # about 45 s to build: only when asked for
+
+
+@pytest.fixture(scope="module", params=REAL)
+def real(request, tmp_path_factory):
+    """A map built by ``fuzzybrep build`` from a CARMEN log, loaded, and its α = 0 cut."""
+    log = log_path(request.param)
+    out = tmp_path_factory.mktemp(request.param) / "map.json"
+    assert main(["build", str(log), "--out", str(out), "--quiet"]) == 0
+    fz = FuzzyBRepMap.load(out)
+    return request.param, out, fz, planner(fz, 0.0).free  # the α-cut, kept for every radius
+
+
+def free_points(region, n: int, rng) -> np.ndarray:
+    x0, y0, x1, y1 = region.bounds
+    out = np.zeros((0, 2))
+    while len(out) < n:
+        p = rng.uniform((x0, y0), (x1, y1), (4 * n, 2))
+        out = np.vstack((out, p[shapely.contains_xy(region, p[:, 0], p[:, 1])]))
+    return out[:n]
+
+
+@pytest.mark.reallog
+@pytest.mark.parametrize("radius", [0.0, 0.2])
+def test_real_map_paths_stay_in_the_safe_region(real, radius):
+    name, _, fz, free = real
+    pl = planner(fz, 0.0, radius)
+    pieces = shapely.get_parts(pl.safe)
+    big = pieces[np.argmax(shapely.area(pieces))]
+    rng = np.random.default_rng(7)
+    pts = free_points(big, 120, rng)
+    for s, g in zip(pts[:60], pts[60:]):
+        p = pl.plan(s, g)
+        assert_safe(p, free, radius)
+        assert pl.covers(p.path)
+        assert p.length >= math.dist(s, g) - TOL
+    # points anywhere in the safe region: a path, or different pieces
+    pts = free_points(pl.safe, 40, rng)
+    for s, g in zip(pts[:20], pts[20:]):
+        try:
+            assert_safe(pl.plan(s, g), free, radius)
+        except NoConnectionError:
+            assert pl.piece(s) != pl.piece(g)
+
+
+def mean_clearance(path, free) -> float:
+    pts = shapely.get_coordinates(shapely.segmentize(shapely.LineString(path), 0.05))
+    return float(shapely.distance(shapely.points(pts), _grown(free)[1]).mean())
+
+
+@pytest.mark.reallog
+def test_real_map_clearance_paths_stay_inside_and_keep_clear(real):
+    name, _, fz, free = real
+    pl = planner(fz, 0.0, 0.2)
+    pieces = shapely.get_parts(pl.safe)
+    big = pieces[np.argmax(shapely.area(pieces))]
+    pts = free_points(big, 40, np.random.default_rng(11))
+    gain = []
+    for s, g in zip(pts[:20], pts[20:]):
+        p = pl.plan(s, g, mode="clearance")
+        assert_safe(p, free, 0.2)
+        assert p.note is None, p.note
+        short = pl.plan(s, g)
+        gain.append(mean_clearance(p.path, free) - mean_clearance(short.path, free))
+    assert min(gain) > -0.02  # never much closer to the walls than the shortest path
+    assert np.mean(gain) > 0.1  # and on average well away from them
+
+
+@pytest.mark.reallog
+def test_real_map_refuses_points_that_are_not_free(real):
+    name, _, fz, free = real
+    crisp = fz.crisp_geometry
+    x0, y0, x1, y1 = crisp.bounds
+    with pytest.raises(PointNotFreeError, match="outside the map"):
+        plan(fz, (x1 + 5, y1 + 5), shapely.get_coordinates(shapely.point_on_surface(free))[0])
+    band = shapely.difference(crisp, shapely.buffer(free, 0.01))
+    rng = np.random.default_rng(3)
+    inside = free_points(free, 1, rng)[0]
+    for p in free_points(band, 10, rng):
+        with pytest.raises(PointNotFreeError) as e:
+            plan(fz, p, inside)
+        assert e.value.distance > 0 and e.value.which == "start"
+    holes = [shapely.Polygon(h.closed_coords()) for h in fz.crisp.regions[0].holes]
+    hole = max(holes, key=lambda h: h.area)
+    with pytest.raises(PointNotFreeError, match="obstacle|outside"):
+        plan(fz, inside, shapely.get_coordinates(shapely.point_on_surface(hole))[0])
+
+
+@pytest.mark.reallog
+def test_real_map_plan_command(real, capsys):
+    name, path, fz, free = real
+    if name != "intel":
+        pytest.skip("one real map is enough for the command (it cuts and builds again: ~3 s)")
+    pl = planner(fz, 0.0, 0.2)
+    pieces = shapely.get_parts(pl.safe)
+    big = pieces[np.argmax(shapely.area(pieces))]
+    s, g = free_points(big, 2, np.random.default_rng(5))
+    assert main(["plan", str(path), "--start", *map(str, s), "--goal", *map(str, g), "--radius", "0.2",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert shapely.covers(shapely.buffer(pl.safe, TOL), shapely.LineString(out["path"]))
