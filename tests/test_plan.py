@@ -458,8 +458,6 @@ def test_real_map_refuses_points_that_are_not_free(real):
 @pytest.mark.reallog
 def test_real_map_plan_command(real, capsys):
     name, path, fz, free = real
-    if name != "intel":
-        pytest.skip("one real map is enough for the command (it cuts and builds again: ~3 s)")
     pl = planner(fz, 0.0, 0.2)
     pieces = shapely.get_parts(pl.safe)
     big = pieces[np.argmax(shapely.area(pieces))]
