@@ -286,25 +286,24 @@ def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplif
     """Drop pieces and holes below the given areas, then simplify boundaries within ``simplify``.
 
     Simplification keeps topology (no boundary crosses another), so it never merges a hole into
-    the shell or turns a piece invalid.
+    the shell or turns a piece invalid. It can squash a tiny hole into a needle with (almost) no
+    area: holes under a tenth of the tolerance squared bound nothing the map can resolve.
     """
-    out = []
-    for g in shapely.get_parts(_polygonal(geom)):
-        if g.area <= min_piece_area:
-            continue
-        holes = [h for h in g.interiors if shapely.Polygon(h).area > min_hole_area]
-        out.append(shapely.Polygon(g.exterior, holes))
-    if not out:
-        return shapely.MultiPolygon()
-    g = shapely.MultiPolygon(out) if len(out) > 1 else out[0]
-    if simplify > 0:
+    g = _drop_small(_polygonal(geom), min_piece_area, min_hole_area)
+    if simplify > 0 and not g.is_empty:
         g = _polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
-        # simplification can squash a tiny hole into a needle with (almost) no area: below a
-        # tenth of the tolerance squared it bounds nothing the map can resolve
-        floor = (simplify / 10) ** 2
-        g = shapely.MultiPolygon([
-            shapely.Polygon(p.exterior, [h for h in p.interiors if shapely.Polygon(h).area > floor])
-            for p in shapely.get_parts(g) if p.area > min_piece_area
-        ])
-        g = g.geoms[0] if len(g.geoms) == 1 else g
+        g = _drop_small(g, min_piece_area, max(min_hole_area, (simplify / 10) ** 2))
     return g
+
+
+def _drop_small(geom, min_piece_area: float, min_hole_area: float):
+    """Pieces of at most min_piece_area and holes of at most min_hole_area removed, vectorised."""
+    parts = shapely.get_parts(geom)
+    parts = parts[shapely.area(parts) > min_piece_area] if len(parts) else parts
+    if len(parts) == 0:
+        return shapely.MultiPolygon()
+    rings, owner = shapely.get_rings(parts, return_index=True)
+    shell = np.r_[True, owner[1:] != owner[:-1]]
+    keep = shell | (shapely.area(shapely.polygons(rings)) > min_hole_area)
+    polys = shapely.polygons(rings[keep], indices=owner[keep])
+    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(list(polys))

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
+import shapely
 
 from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
@@ -41,6 +42,7 @@ class BuildConfig:
     min_hole_area: float = 0.0  #: holes smaller than this are pruned
     tme: float = THESIS_TME_M  #: total maximum error (map unit): the uncertainty the map carries
     simplify: float | None = None  #: vertex reduction tolerance; None: a quarter of TME
+    presimplify: float = 0.01  #: scan polygons are simplified this much before the union (map unit)
     kind_radius: float = 0.1  #: an edge within this of a hit is an obstacle edge, else a frontier
     unit: str = "m"
 
@@ -98,7 +100,9 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
             if progress:
                 progress("scan polygons", len(polygons), len(scans))
     with timer("union"):
-        geom = brep.union(brep.rings_to_shapely([p.ring for p in polygons]))
+        polys = brep.rings_to_shapely([p.ring for p in polygons])
+        # a centimetre is nothing against TME, and halves what GEOS has to overlay
+        geom = brep.union(shapely.simplify(polys, config.presimplify) if config.presimplify > 0 else polys)
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
         geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)

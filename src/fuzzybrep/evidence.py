@@ -53,6 +53,7 @@ class EvidenceConfig:
     close_gaps: int = 0  #: close gaps of up to this many cells between occupied cells before clipping
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     chunk: int = 2_000_000  #: samples per batch, to bound memory
+    cache: int = 16_000_000  #: keep the ray samples between the two passes if there are no more
 
 
 @dataclass
@@ -64,6 +65,7 @@ class Evidence:
     shape: tuple[int, int]  # (ny, nx)
     hits: np.ndarray  # (ny*nx,) int32 number of returns per cell
     occupied: np.ndarray  # (ny*nx,) bool
+    samples: list | None = None  # the ray samples of ``gather``, for ``clip`` to reuse (then dropped)
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         ny, nx = self.shape
@@ -204,18 +206,25 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
 
     g = _grid_rays(rays, ev, cfg.step)
     reach = rays.length - cfg.cross_margin
+    # sample every ray once, to its full length: the crossings use the part short of its end, and
+    # clip (step 4) all of it, from memory when the samples fit in ``cfg.cache``
+    keep = np.ceil(np.maximum(rays.length, 0) / cfg.step).sum() <= cfg.cache
 
     def crossings(chunk):
         lo, hi = chunk
-        ray, _, c = _sample_cells(g, nx, reach, lo, hi, cfg.step)
+        ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
+        short = k * cfg.step < reach[ray]
+        r_, c_ = ray[short], c[short]
         # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
-        first_in_cell = np.r_[True, (c[1:] != c[:-1]) | (ray[1:] != ray[:-1])]
-        c, t = c[first_in_cell], rays.time[ray[first_in_cell]]
-        return np.bincount(c[t > last_near[c]], minlength=nx * ny), np.bincount(c, minlength=nx * ny)
+        first_in_cell = np.r_[True, (c_[1:] != c_[:-1]) | (r_[1:] != r_[:-1])]
+        c_, t = c_[first_in_cell], rays.time[r_[first_in_cell]]
+        counts = np.bincount(c_[t > last_near[c_]], minlength=nx * ny), np.bincount(c_, minlength=nx * ny)
+        return counts, ((lo, hi), ray, k, c) if keep else None
 
-    parts = _parallel(crossings, _chunks(reach, cfg))
-    after_near = sum(p[0] for p in parts)
-    crossed = sum(p[1] for p in parts)
+    parts = _parallel(crossings, _chunks(rays.length, cfg))
+    after_near = sum(p[0][0] for p in parts)
+    crossed = sum(p[0][1] for p in parts)
+    ev.samples = [p[1] for p in parts] if keep else None
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
     # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
@@ -243,8 +252,11 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     nx = ev.shape[1]
 
     def first_conflict(chunk):
-        lo, hi = chunk
-        ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
+        if len(chunk) == 4:  # kept by gather
+            _, ray, k, c = chunk
+        else:
+            lo, hi = chunk
+            ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
         d = k * cfg.step
         occ = ev.occupied[c] & (d < own_end[ray])
         r, dd = ray[occ], d[occ]
@@ -252,6 +264,8 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
         first = np.flatnonzero(np.r_[True, r[1:] != r[:-1]]) if len(r) else np.zeros(0, np.int64)
         return r[first], dd[first]
 
-    for r, d in _parallel(first_conflict, _chunks(rays.length, cfg)):
+    jobs = ev.samples if ev.samples is not None else list(_chunks(rays.length, cfg))
+    ev.samples = None  # used once: give the memory back
+    for r, d in _parallel(first_conflict, jobs):
         out[r] = np.minimum(out[r], np.maximum(d - cfg.step, 0.0))
     return out
