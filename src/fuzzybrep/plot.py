@@ -71,15 +71,20 @@ def draw_map(ax, crisp: BRepMap, poses: np.ndarray | None = None, title: str | N
         ax.set_title(title)
 
 
+def _map_figure(plt, crisp: BRepMap):
+    """A figure 10 inches wide, as tall as the map's aspect asks (within reason)."""
+    x0, y0, x1, y1 = crisp.to_shapely().bounds
+    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    return plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
+
+
 def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray | None = None, title: str | None = None,
                     dpi: int = 150) -> None:
     """A picture of a crisp map: free space filled, obstacle edges dark, frontier edges orange."""
     plt = _agg()
     from matplotlib.lines import Line2D
 
-    x0, y0, x1, y1 = crisp.to_shapely().bounds
-    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
-    fig, ax = plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
+    fig, ax = _map_figure(plt, crisp)
     draw_map(ax, crisp, poses, title)
     handles = [Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"), Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
     if poses is not None and len(poses):
@@ -113,9 +118,7 @@ def save_plan_figure(path: str | os.PathLike, crisp: BRepMap, safe, plans, title
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    x0, y0, x1, y1 = crisp.to_shapely().bounds
-    aspect = (y1 - y0) / max(x1 - x0, 1e-9)
-    fig, ax = plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
+    fig, ax = _map_figure(plt, crisp)
     draw_map(ax, crisp, None, title)
     fill_geometry(ax, safe, facecolor=SAFE, edgecolor="#2d6a4f", lw=0.3, alpha=0.9)
     handles = [Patch(facecolor=FREE, label="crisp free space"), Patch(facecolor=SAFE, label="safe region"),
