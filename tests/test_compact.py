@@ -76,3 +76,15 @@ def test_bad_compact_files(tmp_path):
     p.write_bytes(data[:-5])
     with pytest.raises(MapFileError, match="not a valid compact map"):
         read_compact(p)
+
+
+def test_export_writes_the_compact_map(tmp_path, capsys):
+    from fuzzybrep import cli
+
+    fz = fuzzify(sample_map(), Triangular(0.19913))
+    m, out = tmp_path / "m.json", tmp_path / "m.fbrc"
+    fz.save(m)
+    assert cli.main(["export", str(m), "--compact", str(out)]) == 0
+    crisp, mfs = read_compact(out)
+    assert out.stat().st_size == compact_bytes(fz) and mfs == fz.table.to_dicts()
+    assert all(np.abs(a.vertices - b.vertices).max() <= 0.0005 for a, b in zip(fz.crisp.rings, crisp.rings))

@@ -41,6 +41,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                           "see docs/export.md)")
     out.add_argument("--svg", metavar="OUT.svg",
                      help="standalone SVG picture: crisp map, support band, α-cut outlines")
+    out.add_argument("--compact", metavar="OUT.fbrc",
+                     help="the compact binary map a small robot stores: vertices to 1 mm as varint steps, edge "
+                          "kinds, Table 4.2 (fuzzybrep.compact; the fuzzy tables follow from it in O(n))")
     p.add_argument("--alpha", type=_alpha, action="append", metavar="A",
                    help="α level for --geojson and --svg; repeat for several (default 0 0.25 0.5 0.75 1)")
     p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
@@ -61,8 +64,8 @@ def run(args: argparse.Namespace) -> int:
     from ..mapfile import read_map, write_atomic
     from ..svg import svg_document
 
-    if not (args.geojson or args.ros or args.svg):
-        print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg", file=sys.stderr)
+    if not (args.geojson or args.ros or args.svg or args.compact):
+        print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
     m = read_map(args.map)
@@ -78,6 +81,11 @@ def run(args: argparse.Namespace) -> int:
         text = svg_document(fuzzy, cuts, support, title=Path(args.map).name)
         n = write_atomic(args.svg, text.encode("utf-8"))
         print(f"{args.svg}: {n} bytes")
+    if args.compact:
+        from ..compact import write_compact
+
+        n = write_compact(args.compact, fuzzy.crisp, fuzzy.table.to_dicts())
+        print(f"{args.compact}: {n} bytes ({fuzzy.crisp.n_vertices} vertices)")
     if args.ros:
         name = args.name or Path(args.map).stem
         # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
