@@ -314,7 +314,9 @@ class A2(_Family):
         return 1.0 / (1.0 + self.p * ax * ax)
 
     def _inverse(self, a):
-        return np.sqrt((1.0 / a - 1.0) / self.p)
+        # α → 0 gives an infinite distance, which the support then cuts to TME
+        with np.errstate(divide="ignore", over="ignore"):
+            return np.sqrt((1.0 / a - 1.0) / self.p)
 
     def _never_zero_hint(self) -> str:
         return (": A2 = 1/(1 + p(x − r)²) is positive for every x; pass truncate=True (CLI: ',truncate') "
