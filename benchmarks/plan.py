@@ -27,16 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from fuzzybrep.fuzzy import FuzzyBRepMap  # noqa: E402
 from fuzzybrep.mapfile import write_atomic  # noqa: E402
-from fuzzybrep.plan import Planner  # noqa: E402
-
-
-def free_points(region, n: int, rng) -> np.ndarray:
-    x0, y0, x1, y1 = region.bounds
-    out = np.zeros((0, 2))
-    while len(out) < n:
-        p = rng.uniform((x0, y0), (x1, y1), (4 * n, 2))
-        out = np.vstack((out, p[shapely.contains_xy(region, p[:, 0], p[:, 1])]))
-    return out[:n]
+from fuzzybrep.plan import Planner, free_points  # noqa: E402
 
 
 def timed(f):

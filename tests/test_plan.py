@@ -24,7 +24,7 @@ from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
 from fuzzybrep import plan as plan_module
 from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
-from fuzzybrep.plan import RADIUS_FACTOR, plan, planner, safe_region
+from fuzzybrep.plan import RADIUS_FACTOR, free_points, plan, planner, safe_region
 from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
 
 TOL = 1e-7
@@ -378,15 +378,6 @@ def real(request, tmp_path_factory):
     assert main(["build", str(log), "--out", str(out), "--quiet"]) == 0
     fz = FuzzyBRepMap.load(out)
     return request.param, out, fz, planner(fz, 0.0).free  # the α-cut, kept for every radius
-
-
-def free_points(region, n: int, rng) -> np.ndarray:
-    x0, y0, x1, y1 = region.bounds
-    out = np.zeros((0, 2))
-    while len(out) < n:
-        p = rng.uniform((x0, y0), (x1, y1), (4 * n, 2))
-        out = np.vstack((out, p[shapely.contains_xy(region, p[:, 0], p[:, 1])]))
-    return out[:n]
 
 
 @pytest.mark.reallog

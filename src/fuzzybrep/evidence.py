@@ -49,8 +49,6 @@ class EvidenceConfig:
     solid_hits: int = 3  #: a cell hit this often blocks rays whatever crossed it
     carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
-    carve_min_cells: int = 1  #: cut out only connected groups of at least this many such cells
-    close_gaps: int = 0  #: close gaps of up to this many cells between occupied cells before clipping
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     chunk: int = 2_000_000  #: samples per batch, to bound memory
     cache: int = 16_000_000  #: keep the ray samples between the two passes if there are no more
@@ -121,13 +119,6 @@ def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
     r = cfg.carve_depth
     for dx, dy in ((r, 0), (-r, 0), (0, r), (0, -r)):
         deep[deep] = shapely.contains_xy(free, cx[deep] + dx, cy[deep] + dy)
-    if cfg.carve_min_cells > 1 and deep.any():
-        mask = np.zeros(nx * ny, bool)
-        mask[cand[deep]] = True
-        labels, _ = ndimage.label(mask.reshape(ny, nx), structure=np.ones((3, 3), bool))
-        lab = labels.ravel()[cand[deep]]
-        size = np.bincount(lab)
-        deep[np.flatnonzero(deep)[size[lab] < cfg.carve_min_cells]] = False
     h = ev.cell / 2
     return shapely.union_all(shapely.box(cx[deep] - h, cy[deep] - h, cx[deep] + h, cy[deep] + h))
 
@@ -195,7 +186,7 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     ev.hits = hits
     if not cfg.clear:
         ev.occupied = hits > 0
-        return _closed(ev, cfg)
+        return ev
 
     last_hit = np.full(nx * ny, -np.inf)
     np.maximum.at(last_hit, hc, rays.time[rays.hit])
@@ -230,16 +221,6 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
     solid = (hits >= cfg.solid_hits) | (hits >= cfg.block_ratio * crossed)
     ev.occupied = (hits > 0) & ~cleared & solid
-    return _closed(ev, cfg)
-
-
-def _closed(ev: Evidence, cfg: EvidenceConfig) -> Evidence:
-    """Fill gaps of up to ``close_gaps`` cells between occupied cells: glass returns only some
-    beams, and a ray must not slip between two of its returns."""
-    if cfg.close_gaps > 0:
-        k = 2 * cfg.close_gaps + 1
-        ny, nx = ev.shape
-        ev.occupied = ndimage.binary_closing(ev.occupied.reshape(ny, nx), np.ones((k, k), bool)).ravel() | ev.occupied
     return ev
 
 

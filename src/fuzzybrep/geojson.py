@@ -21,9 +21,6 @@ import shapely
 from .brep import BRepMap, _nearest_vertex, validate_ring
 from .errors import GeometryError, MapFileError
 
-POLYGONAL = ("Polygon", "MultiPolygon")
-
-
 def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
     """The crisp map in a GeoJSON file. MapFileError for unreadable files or wrong structure,
     GeometryError (naming feature, polygon, ring and vertex) for bad geometry."""

@@ -490,3 +490,13 @@ def plan(source, start, goal, alpha: float = 0.0, radius: float = 0.0, mode: str
 
 
 __all__ = ["MODES", "Plan", "Planner", "free_space", "plan", "planner", "safe_region"]
+
+
+def free_points(region, n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 2) points drawn uniformly inside ``region`` (e.g. a safe region): starts and goals to try."""
+    x0, y0, x1, y1 = region.bounds
+    out = np.zeros((0, 2))
+    while len(out) < n:
+        p = rng.uniform((x0, y0), (x1, y1), (4 * n, 2))
+        out = np.vstack((out, p[shapely.contains_xy(region, p[:, 0], p[:, 1])]))
+    return out[:n]

@@ -29,7 +29,8 @@ from typing import Sequence
 
 import numpy as np
 
-from ..polygon import CLIPPED, FAR, NONE, RETURN
+from ..lines import spans
+from ..polygon import CLIPPED, FAR, NONE, RETURN, PolygonConfig, depth_continuous
 from .scan import Scan
 
 
@@ -79,9 +80,6 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
     are tried for each jump away, the nearest first; openings wider than ``spike_width`` beams
     are not examined.
     """
-    from ..polygon import PolygonConfig, depth_continuous
-    from ..lines import spans
-
     S, n = free.shape
     f = free.copy()
     st = status.copy()

@@ -46,7 +46,6 @@ from .scan import Scan
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TF_MESSAGES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
-BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 TWO_PI = 2 * math.pi
 
 
