@@ -6,20 +6,9 @@ the input is a bag, so ``read_scans`` keeps one signature per format.
 
 from __future__ import annotations
 
-import argparse
-
 from ..errors import ScanFormatError
 from ..scans.read import ReadReport, detect_format, read_scans
-
-
-def positive(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} must be a positive number")
-    return v
+from ._types import positive
 
 
 def add_log_arguments(p) -> None:

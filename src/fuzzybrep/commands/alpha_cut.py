@@ -9,24 +9,15 @@ import sys
 from ..geojson import alpha_cut_collection
 from ..mapfile import write_atomic
 from ._maps import add_map_argument, load_map
+from ._types import alpha
 
 NAME = "alpha-cut"
 HELP = "write α-cuts (inner: free at confidence α; outer) as GeoJSON features with properties role and alpha"
 
 
-def _alpha(s: str) -> float:
-    try:
-        a = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"α must be a number, got {s!r}") from None
-    if not 0.0 <= a <= 1.0:
-        raise argparse.ArgumentTypeError(f"α must lie in [0, 1], got {s}")
-    return a
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
-    p.add_argument("--alpha", type=_alpha, action="append", required=True, metavar="A",
+    p.add_argument("--alpha", type=alpha, action="append", required=True, metavar="A",
                    help="membership grade in [0, 1]; repeat for several α-cuts")
     p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
                    help="sweep: the thesis's single normal vertex method (default); exact: Extension principle")

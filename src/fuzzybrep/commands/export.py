@@ -3,26 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 import time
 from pathlib import Path
 
-from .alpha_cut import _alpha
-from ._maps import add_map_argument
+from ._maps import add_map_argument, load_map
+from ._types import alpha, number
 
 NAME = "export"
 HELP = "export a map: α-cuts as GeoJSON, a ROS map_server pair (PGM + YAML), an SVG picture"
 
 
-def _resolution(s: str) -> float:
-    try:
-        r = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"resolution must be a number, got {s!r}") from None
-    if not r > 0 or r == float("inf"):
-        raise argparse.ArgumentTypeError(f"resolution must be positive, got {s}")
-    return r
+_resolution = number(lambda r: 0 < r < math.inf, "resolution must be a number, got {text!r}",
+                     "resolution must be positive, got {text}")
 
 
 def _name(s: str) -> str:
@@ -44,7 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     out.add_argument("--compact", metavar="OUT.fbrc",
                      help="the compact binary map a small robot stores: vertices to 1 mm as varint steps, edge "
                           "kinds, Table 4.2 (fuzzybrep.compact; the fuzzy tables follow from it in O(n))")
-    p.add_argument("--alpha", type=_alpha, action="append", metavar="A",
+    p.add_argument("--alpha", type=alpha, action="append", metavar="A",
                    help="α level for --geojson and --svg; repeat for several (default 0 0.25 0.5 0.75 1)")
     p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
                    help="α-cuts for --geojson and --svg: sweep (the thesis's, default) or exact "
@@ -60,16 +55,14 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MapFileError
     from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
                           write_geojson, write_ros)
-    from ..fuzzy import FuzzyBRepMap
-    from ..mapfile import read_map, write_atomic
+    from ..mapfile import write_atomic
     from ..svg import svg_document
 
     if not (args.geojson or args.ros or args.svg or args.compact):
         print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    m = read_map(args.map)
-    fuzzy = FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
+    fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
     cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
     if args.geojson:

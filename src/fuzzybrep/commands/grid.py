@@ -5,7 +5,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._logopts import add_log_arguments, positive, read_log
+from ._logopts import add_log_arguments, read_log
+from ._types import positive
 
 NAME = "grid"
 HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map (PGM + YAML)"

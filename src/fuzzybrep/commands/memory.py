@@ -6,19 +6,13 @@ import argparse
 
 from ..fuzzy import memory_markdown
 from ._maps import add_map_argument, load_map
+from ._types import number
 
 NAME = "memory"
 HELP = "print Table 5.3 for a map: fuzzy B-rep memory (thesis accounting and compact) vs occupancy grids"
 
 
-def _cell(s: str) -> float:
-    try:
-        c = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"cell size must be a number, got {s!r}") from None
-    if not c > 0:
-        raise argparse.ArgumentTypeError(f"cell size must be positive, got {s}")
-    return c
+_cell = number(lambda c: c > 0, "cell size must be a number, got {text!r}", "cell size must be positive, got {text}")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

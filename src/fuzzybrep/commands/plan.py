@@ -4,31 +4,26 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from ..plan import MODES, planner
 from ._maps import add_map_argument, load_map
-from .alpha_cut import _alpha
+from ._types import alpha, number
 
 NAME = "plan"
 HELP = "plan a path that stays in the space free at confidence α, kept a robot's radius from its edge"
 
 
-def _radius(s: str) -> float:
-    try:
-        r = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"radius must be a number, got {s!r}") from None
-    if not r >= 0 or r == float("inf"):
-        raise argparse.ArgumentTypeError(f"radius must be a finite number ≥ 0, got {s}")
-    return r
+_radius = number(lambda r: 0 <= r < math.inf, "radius must be a number, got {text!r}",
+                 "radius must be a finite number ≥ 0, got {text}")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
     p.add_argument("--start", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where the robot is")
     p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where it should go")
-    p.add_argument("--alpha", type=_alpha, default=0.0, metavar="A",
+    p.add_argument("--alpha", type=alpha, default=0.0, metavar="A",
                    help="plan in the inner α-cut, the space free at confidence α (default 0: the support's "
                         "inner bound, the safest)")
     p.add_argument("--radius", type=_radius, default=0.0, metavar="R",

@@ -7,19 +7,14 @@ import time
 from pathlib import Path
 
 from ._maps import add_map_argument
+from ._types import number
 
 NAME = "view"
 HELP = "write one self-contained HTML page showing the map, its α-cuts, μ under the cursor, poses and a path"
 
 
-def _levels(s: str) -> int:
-    try:
-        n = int(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--alphas must be a whole number, got {s!r}") from None
-    if not 2 <= n <= 1001:
-        raise argparse.ArgumentTypeError(f"--alphas must be 2 to 1001, got {n}")
-    return n
+_levels = number(lambda n: 2 <= n <= 1001, "--alphas must be a whole number, got {text!r}",
+                 "--alphas must be 2 to 1001, got {value}", cast=int)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -1,0 +1,30 @@
+"""argparse types for numbers with a rule, shared by the commands (not a command: cli.COMMANDS does not list it).
+
+argparse prints an ``ArgumentTypeError``'s text after the option's name, so each type says what
+was wrong in the user's words; ``{text}`` is what was typed, ``{value}`` the parsed number.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Callable
+
+
+def number(ok: Callable[[float], bool], not_a_number: str, breaks_rule: str, cast: type = float):
+    """An argparse type: ``cast(text)``, kept when ``ok(value)``; else the message, formatted."""
+
+    def parse(text: str):
+        try:
+            value = cast(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(not_a_number.format(text=text, value=None)) from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(breaks_rule.format(text=text, value=value))
+        return value
+
+    return parse
+
+
+positive = number(lambda v: 0 < v < math.inf, "{text!r} is not a number", "{text} must be a positive number")
+alpha = number(lambda a: 0.0 <= a <= 1.0, "α must be a number, got {text!r}", "α must lie in [0, 1], got {text}")
