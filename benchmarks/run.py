@@ -233,7 +233,7 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
           "principle (±TME offsets); sweep band: the thesis's single-normal-vertex approximation of it."]
     if scaling:
         base = scaling[0]
-        L += ["", f"**Scaling** (the largest log, first n scans; build + fuzzify)", "",
+        L += ["", "**Scaling** (the largest log, first n scans; build + fuzzify)", "",
               "| scans | seconds | seconds per 1000 scans | × time of the first row | × scans |", "|---:|---:|---:|---:|---:|"]
         for s in scaling:
             L.append(f"| {s['scans']} | {s['seconds']:.2f} | {1000 * s['seconds'] / s['scans']:.2f} | "

@@ -339,7 +339,7 @@ def summary(r: DemoResult, out: str | None = None, seconds: float | None = None)
         f"{e['heading_error_deg']['mean']:.1f}°); {_pct(e['returns_within_tme'])} of returns within TME",
         f"map: {f.fuzzy.crisp.n_vertices} vertices ({f.fuzzy.crisp.n_holes} holes): {rows[0]['bytes']} bytes as "
         f"Table 5.3 counts, {rows[1]['bytes']} compact",
-        f"grids at " + "/".join(f"{round(c * 100)}" for c in GRID_CELLS) + " cm: "
+        "grids at " + "/".join(f"{round(c * 100)}" for c in GRID_CELLS) + " cm: "
         + "/".join(str(row["bytes"]) for row in rows[2:2 + k]) + " bytes over the map's area, "
         + "/".join(str(row["bytes"]) for row in rows[2 + k:2 + 2 * k]) + " over its bounding box",
     ]

@@ -227,7 +227,7 @@ class _Beams:
         ``corner_bridge`` stray points between two lines (the beams right at a corner often fit
         neither) give way to the corner.
         """
-        beta, pts, f, tol = self.beta, self.pts, self.f, self.tol
+        beta, pts, tol = self.beta, self.pts, self.tol
         run_of = np.searchsorted(runs[:, 0], lines.start, side="right") - 1
         inside = (run_of >= 0) & (lines.start < runs[np.maximum(run_of, 0), 1])
         start, stop, th, rh, run_of = lines.start[inside], lines.stop[inside], lines.theta[inside], lines.rho[inside], run_of[inside]
