@@ -56,9 +56,7 @@ def main(argv=None) -> int:
             for radius in a.radius or [0.0, 0.2]:
                 pl = Planner(cut, radius, alpha=alpha, method="sweep", fuzzy=fz)
                 graph, t_graph = timed(lambda: pl.visibility)
-                pieces = shapely.get_parts(pl.safe)
-                big = pieces[np.argmax(shapely.area(pieces))]
-                pts = free_points(big, 2 * a.pairs, np.random.default_rng(1))
+                pts = free_points(pl.largest_piece, 2 * a.pairs, np.random.default_rng(1))
                 ts = []
                 for s, g in zip(pts[: a.pairs], pts[a.pairs:]):
                     p, t = timed(lambda: pl.plan(s, g))

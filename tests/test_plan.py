@@ -385,10 +385,8 @@ def real(request, tmp_path_factory):
 def test_real_map_paths_stay_in_the_safe_region(real, radius):
     name, _, fz, free = real
     pl = planner(fz, 0.0, radius)
-    pieces = shapely.get_parts(pl.safe)
-    big = pieces[np.argmax(shapely.area(pieces))]
     rng = np.random.default_rng(7)
-    pts = free_points(big, 120, rng)
+    pts = free_points(pl.largest_piece, 120, rng)
     for s, g in zip(pts[:60], pts[60:]):
         p = pl.plan(s, g)
         assert_safe(p, free, radius)
@@ -412,9 +410,7 @@ def mean_clearance(path, free) -> float:
 def test_real_map_clearance_paths_stay_inside_and_keep_clear(real):
     name, _, fz, free = real
     pl = planner(fz, 0.0, 0.2)
-    pieces = shapely.get_parts(pl.safe)
-    big = pieces[np.argmax(shapely.area(pieces))]
-    pts = free_points(big, 40, np.random.default_rng(11))
+    pts = free_points(pl.largest_piece, 40, np.random.default_rng(11))
     gain = []
     for s, g in zip(pts[:20], pts[20:]):
         p = pl.plan(s, g, mode="clearance")
@@ -450,9 +446,7 @@ def test_real_map_refuses_points_that_are_not_free(real):
 def test_real_map_plan_command(real, capsys):
     name, path, fz, free = real
     pl = planner(fz, 0.0, 0.2)
-    pieces = shapely.get_parts(pl.safe)
-    big = pieces[np.argmax(shapely.area(pieces))]
-    s, g = free_points(big, 2, np.random.default_rng(5))
+    s, g = free_points(pl.largest_piece, 2, np.random.default_rng(5))
     assert main(["plan", str(path), "--start", *map(str, s), "--goal", *map(str, g), "--radius", "0.2",
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

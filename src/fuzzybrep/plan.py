@@ -159,7 +159,7 @@ class Planner:
 
     free       the free space (inner α-cut, or the geometry given)
     safe       free shrunk by ``radius`` (``safe_region``)
-    pieces     the safe region's connected pieces (Polygons), in GEOS's order
+    pieces     the safe region's connected pieces (Polygons), in GEOS's order (``largest_piece``)
     tolerance  how far outside the safe region GEOS rounding may put a point of a path that is
                accepted (RELATIVE_TOLERANCE × the map's size)
 
@@ -195,6 +195,11 @@ class Planner:
         unit = source.unit if isinstance(source, (FuzzyBRepMap, BRepMap)) else kw.pop("unit", "m")
         return cls(free_space(source, alpha or 0.0, method), radius, alpha=alpha,
                    method=method if fuzzy is not None else None, fuzzy=fuzzy, unit=unit, **kw)
+
+    @property
+    def largest_piece(self) -> shapely.Polygon:
+        """The safe region's largest connected piece: any two points in it are joined by a path."""
+        return self.pieces[np.argmax(shapely.area(self.pieces))]
 
     @property
     def fuzzy(self) -> FuzzyBRepMap | None:
