@@ -134,9 +134,7 @@ def alpha_stack(result, path: str | os.PathLike, alphas=ALPHAS) -> None:
     ax2.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
     fig.suptitle(f"Fuzzy B-rep map, α-cuts of the triangular membership function, TME = {result.tme_mm:.1f} mm "
                  "(cf. thesis Figure 4.2)", fontsize=11)
-    fig.tight_layout()
     _save(fig, path, DPI)
-    plt.close(fig)
 
 
 def support(result, path: str | os.PathLike) -> None:
@@ -166,9 +164,7 @@ def support(result, path: str | os.PathLike) -> None:
                        Line2D([], [], color="#e07b39", label="crisp frontier edge"),
                        Line2D([], [], marker="o", ls="", color=ROUTE, label="stops (pose the map used)")],
               loc=_legend_place(result), fontsize=9)
-    fig.tight_layout()
     _save(fig, path, DPI)
-    plt.close(fig)
 
 
 def membership_surface(result, path: str | os.PathLike, n: int = 260) -> None:
@@ -193,9 +189,7 @@ def membership_surface(result, path: str | os.PathLike, n: int = 260) -> None:
     ax.view_init(*MEMBERSHIP_VIEW)
     ax.set_title(f"Membership of the fuzzy boundary, μ = 1 on the crisp boundary, 0 beyond ±TME = "
                  f"{result.tme_mm:.1f} mm (cf. thesis Figure 5.12)", fontsize=10)
-    fig.tight_layout()
     _save(fig, path, DPI)
-    plt.close(fig)
 
 
 def map_vs_floorplan(result, path: str | os.PathLike) -> None:
@@ -240,9 +234,7 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
                             Line2D([], [], color=MISSED, lw=3, label="seen wall outside the support"),
                             Line2D([], [], color=UNSAFE, lw=3, label="wall inside the safe region")],
                    loc=_legend_place(result), fontsize=9)
-    fig.tight_layout()
     _save(fig, path, DPI)
-    plt.close(fig)
 
 
 FIGURES = {

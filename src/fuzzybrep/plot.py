@@ -90,21 +90,26 @@ def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray |
     if poses is not None and len(poses):
         handles.append(Line2D([], [], color="#2a9d8f", label="robot path"))
     ax.legend(handles=handles, loc="best", fontsize=8)
-    fig.tight_layout()
     _save(fig, path, dpi)
-    plt.close(fig)
 
 
 def _save(fig, path, dpi) -> None:
-    """Save atomically: a half-written picture never replaces a good one."""
+    """Lay the figure out, save it atomically (a half-written picture never replaces a good one)
+    and close it (pyplot keeps every open figure alive)."""
     import io
+
+    import matplotlib.pyplot as plt
 
     from .mapfile import write_atomic
 
-    buf = io.BytesIO()
-    ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
-    fig.savefig(buf, format=ext, dpi=dpi)
-    write_atomic(path, buf.getvalue())
+    try:
+        fig.tight_layout()
+        buf = io.BytesIO()
+        ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
+        fig.savefig(buf, format=ext, dpi=dpi)
+        write_atomic(path, buf.getvalue())
+    finally:
+        plt.close(fig)
 
 
 SAFE = "#b7e4c7"
@@ -132,6 +137,4 @@ def save_plan_figure(path: str | os.PathLike, crisp: BRepMap, safe, plans, title
         ax.plot(*p.path[-1], "*", color=c, ms=9)
         handles.append(Line2D([], [], color=c, lw=1.6, label=f"{p.mode} path, {p.length:.3g} {p.unit}"))
     ax.legend(handles=handles, loc="best", fontsize=8)
-    fig.tight_layout()
     _save(fig, path, dpi)
-    plt.close(fig)
