@@ -20,6 +20,7 @@ import shapely
 
 from .brep import BRepMap, _nearest_vertex, validate_ring
 from .errors import GeometryError, MapFileError
+from .scans.read import is_float
 
 def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
     """The crisp map in a GeoJSON file. MapFileError for unreadable files or wrong structure,
@@ -167,18 +168,10 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         try:
             x, y = float(cells[0]), float(cells[1])
         except ValueError:
-            if header and not any(_number(c) for c in cells[:2]):
+            if header and not any(is_float(c) for c in cells[:2]):
                 continue  # a header line such as "x,y"
             raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[0]!r}, {cells[1]!r}") from None
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MapFileError(path, f"line {line}: x,y must be finite")
         pts.append((x, y))
     return np.array(pts, dtype=np.float64).reshape(-1, 2)
-
-
-def _number(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
