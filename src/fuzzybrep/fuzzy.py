@@ -552,12 +552,22 @@ class FuzzyBRepMap:
         np.maximum.at(mu, pi[good], val[good])
         return np.clip(mu, 0.0, 1.0)
 
-    def _d_at(self, fm: np.ndarray, alpha: np.ndarray, side: np.ndarray) -> np.ndarray:
-        d = np.empty(len(fm))
+    def _d_at(self, fm: np.ndarray, side: np.ndarray):
+        """d(α) per pair: d_in on IN bands, d_out on OUT ones, each pair's function from ``fm``.
+
+        Groups by function once; the returned function of α (one per pair) is what bisection calls.
+        """
+        groups = []
         for k in np.unique(fm):
             sel = fm == k
-            f = self.table[int(k)]
-            d[sel] = np.where(side[sel] > 0, f.d_in(alpha[sel]), f.d_out(alpha[sel]))
+            groups.append((sel, side[sel] > 0, self.table[int(k)]))
+
+        def d(alpha: np.ndarray) -> np.ndarray:
+            out = np.empty(len(fm))
+            for sel, inward, f in groups:
+                out[sel] = np.where(inward, f.d_in(alpha[sel]), f.d_out(alpha[sel]))
+            return out
+
         return d
 
     def _hull_levels(self, p: np.ndarray, b: np.ndarray, iterations: int = 45) -> np.ndarray:
@@ -568,10 +578,12 @@ class FuzzyBRepMap:
         """
         B = self._bands
         c0, c1, a0, a1, side = B["c0"][b], B["c1"][b], B["a0"][b], B["a1"][b], B["side"][b]
+        D0, D1 = B["D0"][b], B["D1"][b]
+        d0, d1 = self._d_at(B["fm0"][b], side), self._d_at(B["fm1"][b], side)
 
         def holds(alpha):
-            p0 = c0 + a0 * (self._d_at(B["fm0"][b], alpha, side) / B["D0"][b])[:, None]
-            p1 = c1 + a1 * (self._d_at(B["fm1"][b], alpha, side) / B["D1"][b])[:, None]
+            p0 = c0 + a0 * (d0(alpha) / D0)[:, None]
+            p1 = c1 + a1 * (d1(alpha) / D1)[:, None]
             return in_hull(p, np.stack((c0, c1, p1, p0), axis=1))
 
         lo, hi = np.zeros(len(p)), np.ones(len(p))
