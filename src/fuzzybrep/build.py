@@ -22,12 +22,10 @@ import shapely
 from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
 from .evidence import EvidenceConfig, Rays
+from .membership import DEFAULT_TME_M
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
 from .scans.filters import BeamConfig, classify_all
 from .scans.scan import Scan
-
-#: the thesis's TME in metres: 15 mm laser error + 184.13 mm odometry error (Appendix I)
-THESIS_TME_M = 0.19913
 
 
 @dataclass(frozen=True)
@@ -40,7 +38,7 @@ class BuildConfig:
     use_evidence: bool = True  #: clip rays against other scans' obstacles (truthful free space)
     min_piece_area: float = 0.05  #: detached free pieces smaller than this are noise (map unit²)
     min_hole_area: float = 0.0  #: holes smaller than this are pruned
-    tme: float = THESIS_TME_M  #: total maximum error (map unit): the uncertainty the map carries
+    tme: float = DEFAULT_TME_M  #: total maximum error (map unit): the uncertainty the map carries; the thesis's, in metres
     simplify: float | None = None  #: vertex reduction tolerance; None: a quarter of TME
     presimplify: float = 0.01  #: scan polygons are simplified this much before the union (map unit)
     kind_radius: float = 0.1  #: an edge within this of a hit is an obstacle edge, else a frontier

@@ -14,7 +14,7 @@ must predict scans it has not seen.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -29,6 +29,8 @@ class EndpointScore:
     explained: float
     violations: float
     beyond: float
+    #: per point: inside the safe inner region (a violation); None when there are no points
+    violated: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         return {"endpoints": self.endpoints, "explained": self.explained, "violations": self.violations, "beyond": self.beyond}
@@ -79,7 +81,7 @@ def score(points: np.ndarray, safe, outer) -> EndpointScore:
     inside_outer = shapely.intersects_xy(outer, points[:, 0], points[:, 1])
     v = float(inside_safe.mean())
     b = float((~inside_outer).mean())
-    return EndpointScore(n, 1.0 - v - b, v, b)
+    return EndpointScore(n, 1.0 - v - b, v, b, inside_safe)
 
 
 def band_by_buffer(free, tme_in: float, tme_out: float | None = None):
@@ -149,7 +151,7 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     import time
 
     from .build import BuildConfig, build_map
-    from .fuzzy import compact_bytes, fuzzify
+    from .fuzzy import compact_bytes, fuzzify, memory_table
     from .grid import occupancy_grid
 
     config = config or BuildConfig()
@@ -163,11 +165,10 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     for method in ("exact", "sweep"):
         cut = fz.alpha_cut(0.0, method)
         scores[method] = score(pts, cut.inner, cut.outer)
-        if method == "exact":
-            viol = shapely.contains_xy(cut.inner, pts[:, 0], pts[:, 1])
-            on_small = float((viol & small_objects(held, max_range)).mean()) if len(pts) else float("nan")
+    viol = scores["exact"].violated
+    on_small = float((viol & small_objects(held, max_range)).mean()) if len(pts) else float("nan")
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
-    thesis = 4 * (10 * crisp.n_vertices + 6 * crisp.n_vertices)
+    thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
     return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, scores["sweep"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)

@@ -33,7 +33,7 @@ from scipy import ndimage
 from .brep import FRONTIER, BRepMap
 from .geojson import alpha_cut_collection
 from .mapfile import write_atomic
-from .rosmap import write_ros_map
+from .rosmap import FREE_THRESH, OCCUPIED_THRESH, write_ros_map
 
 #: default levels of ``fuzzybrep export --geojson`` and ``--svg``
 DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -42,8 +42,6 @@ DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
 # trinary mode, p < free_thresh as free and p > occupied_thresh as occupied. With map_saver's
 # thresholds every level below keeps its class, so a stock map_server sees free, occupied and
 # unknown exactly where the crisp map says, and the shade within a class is μ.
-FREE_THRESH = 0.196
-OCCUPIED_THRESH = 0.65
 #: free cell deep in free space (μ = 0); FREE_GREY − FREE_STEPS = 206 is free next to the boundary
 FREE_GREY = 254
 FREE_STEPS = 48

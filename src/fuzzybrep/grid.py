@@ -32,6 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .rosmap import FREE_THRESH, OCCUPIED_THRESH
 from .scans.scan import Scan
 
 
@@ -44,9 +45,6 @@ def logit(p: float) -> float:
 L_OCC = logit(0.7)
 L_FREE = logit(0.4)
 CLAMP = (logit(0.12), logit(0.97))
-#: map_server's thresholds as map_saver writes them: p > 0.65 is occupied, p < 0.196 is free
-OCCUPIED_THRESH = 0.65
-FREE_THRESH = 0.196
 
 #: cell states in the nav_msgs/OccupancyGrid convention (what ``trinary`` returns)
 UNKNOWN, FREE, OCCUPIED = -1, 0, 100

@@ -26,16 +26,12 @@ from .visibility import boundary_edges
 class MedialAxis:
     """A graph approximating the medial axis of a region.
 
-    nodes      (k, 2) Voronoi vertices inside the region
-    edges      (e, 2) node indices of Voronoi edges inside the region
-    clearance  (k,) distance from each node to the nearest boundary point sampled (within
-               ``spacing``/2 of its distance to the boundary)
+    nodes  (k, 2) Voronoi vertices inside the region
+    edges  (e, 2) node indices of Voronoi edges inside the region
     """
 
     nodes: np.ndarray
     edges: np.ndarray
-    clearance: np.ndarray
-    spacing: float
 
     @classmethod
     def of(cls, region: shapely.Geometry, spacing: float) -> "MedialAxis":
@@ -52,7 +48,7 @@ class MedialAxis:
         first.sort()
         sites, ring, pos = coords[first], ring[first], pos[first]
         if len(sites) < 4:
-            return cls(np.zeros((0, 2)), np.zeros((0, 2), np.int64), np.zeros(0), float(spacing))
+            return cls(np.zeros((0, 2)), np.zeros((0, 2), np.int64))
         # evenly spaced points along straight walls are as degenerate as input gets (many on a
         # line, four on a circle) and make Qhull crawl; a jitter of 1e-3 spacing, the same on
         # every run, takes that away and moves the axis by no more
@@ -73,21 +69,10 @@ class MedialAxis:
         hits = shapely.STRtree(boundary).query(shapely.linestrings(v[rv]), predicate="intersects")[0]
         rv = np.delete(rv, np.unique(hits), axis=0)
         used, edges = np.unique(rv, return_inverse=True)
-        nodes = v[used]
-        clearance = np.linalg.norm(nodes - sites[_nearest_site(vor, used)], axis=1)
-        return cls(nodes, edges.reshape(-1, 2), clearance, float(spacing))
+        return cls(v[used], edges.reshape(-1, 2))
 
     @property
     def lengths(self) -> np.ndarray:
         d = self.nodes[self.edges[:, 1]] - self.nodes[self.edges[:, 0]]
         return np.hypot(d[:, 0], d[:, 1])
 
-
-def _nearest_site(vor: Voronoi, vertices: np.ndarray) -> np.ndarray:
-    """For each Voronoi vertex, one of the sites nearest to it: a site of any ridge it ends."""
-    rv = np.asarray(vor.ridge_vertices, dtype=np.int64).reshape(-1, 2)
-    site = np.repeat(np.asarray(vor.ridge_points, dtype=np.int64)[:, 0], 2)
-    end = rv.ravel()
-    site_of = np.full(len(vor.vertices), -1, np.int64)
-    site_of[end[end >= 0]] = site[end >= 0]
-    return site_of[vertices]

@@ -33,6 +33,9 @@ import numpy as np
 from .errors import MapFileError
 from .mapfile import write_atomic
 
+#: map_saver's thresholds: p > 0.65 is occupied, p < 0.196 is free (the defaults everywhere)
+OCCUPIED_THRESH = 0.65
+FREE_THRESH = 0.196
 #: map_saver's grey levels (trinary mode)
 PIXEL_OCCUPIED, PIXEL_FREE, PIXEL_UNKNOWN = 0, 254, 205
 MODES = ("trinary", "scale", "raw")
@@ -47,8 +50,8 @@ class RosMap:
     resolution: float
     origin: tuple[float, float, float]
     negate: bool = False
-    occupied_thresh: float = 0.65
-    free_thresh: float = 0.196
+    occupied_thresh: float = OCCUPIED_THRESH
+    free_thresh: float = FREE_THRESH
     mode: str = "trinary"
     maxval: int = 255
     image_path: Path | None = None  # where the image was read from
@@ -101,8 +104,8 @@ def _num(x: float) -> str:
     return f"{mant}.0e{exp}" if e and "." not in mant else r
 
 
-def map_yaml(image_name: str, resolution: float, origin, negate: bool = False, occupied_thresh: float = 0.65,
-             free_thresh: float = 0.196, mode: str | None = "trinary") -> str:
+def map_yaml(image_name: str, resolution: float, origin, negate: bool = False, occupied_thresh: float = OCCUPIED_THRESH,
+             free_thresh: float = FREE_THRESH, mode: str | None = "trinary") -> str:
     """The YAML text of a map_server map (flat keys, ``origin`` as a flow list, as map_saver writes)."""
     ox, oy, yaw = (float(v) for v in origin)
     lines = [f"image: {image_name}"]
@@ -119,7 +122,7 @@ def map_yaml(image_name: str, resolution: float, origin, negate: bool = False, o
 
 
 def write_ros_map(yaml_path: str | os.PathLike, image: np.ndarray, resolution: float, origin,
-                  *, occupied_thresh: float = 0.65, free_thresh: float = 0.196, negate: bool = False,
+                  *, occupied_thresh: float = OCCUPIED_THRESH, free_thresh: float = FREE_THRESH, negate: bool = False,
                   mode: str | None = "trinary", comment: str | None = None) -> tuple[Path, Path]:
     """Write ``image`` (uint8, row 0 = top of the map) as NAME.pgm beside the YAML file NAME.yaml.
 
