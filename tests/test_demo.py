@@ -143,28 +143,18 @@ def test_crisp_boundary_lies_within_tme_of_a_wall(builtin_run):
     assert rep["maps"]["filtered"]["truth"]["exact"]["boundary_within_tme"] >= MIN_BOUNDARY_WITHIN_TME
 
 
-def test_only_glass_lies_in_the_safe_region(builtin_run):
-    """Every wall the safe region (exact α = 0 cut) swallows is glass: beams through glass that
-    neither the spike filter nor the evidence grid stopped (docs/demo.md, "What fails")."""
-    r = _builtin_result()
-    cut = r.maps["filtered"].support["exact"]
-    opaque = shapely.difference(r.world.walls, r.world.glass_walls.buffer(1e-3))
-    assert shapely.intersection(opaque, cut.inner).length == pytest.approx(0.0, abs=1e-9)
-
-
-def test_only_a_little_glass_is_in_the_safe_region(builtin_run):
-    # what the next test asks for fails on glass alone (the test above: no opaque wall), and by
-    # decimetres out of the 33 m of glass
-    _, rep, _ = builtin_run
-    assert 0.0 <= rep["maps"]["filtered"]["truth"]["exact"]["unsafe_wall_length_m"] < 0.5
-
-
-@pytest.mark.xfail(strict=True, reason="simulated glass passes or mirrors beams one by one: phantom walls 0.2-0.3 m "
-                                       "behind a pane, and stretches between its sparse returns, leave 0.1-0.3 m of "
-                                       "the 33 m of glass inside the exact safe region; docs/demo.md")
 def test_no_wall_in_the_safe_region(builtin_run):
     _, rep, _ = builtin_run
     assert rep["maps"]["filtered"]["truth"]["exact"]["unsafe_wall_length_m"] == 0.0
+
+
+@pytest.mark.parametrize("seed", [4, 6])
+def test_other_seeds_meet_every_criterion(seed):
+    # the seeds on which beams through glass once left 0.30 and 0.17 m of pane in the safe region:
+    # no-return beams slipped between its sparse returns (evidence.bridged now stops them)
+    m = run_demo(builtin_floor(), builtin_route(), seed=seed).maps["filtered"]
+    assert m.criteria("exact") == dict.fromkeys(("support_coverage", "unsafe_wall_length", "boundary_within_tme"), True)
+    assert m.truth["exact"].unsafe_wall_length == 0.0
 
 
 @pytest.mark.xfail(strict=True, reason="the sweep's single-normal-vertex band narrows to TME·sin(θ/2) at the sharp "
@@ -179,16 +169,6 @@ def test_unfiltered_glass_spikes_break_the_map(builtin_run):
     f, u = rep["maps"]["filtered"]["truth"]["exact"], rep["maps"]["unfiltered"]["truth"]["exact"]
     assert u["unsafe_wall_length_m"] > 10 * max(f["unsafe_wall_length_m"], 0.1)
     assert u["boundary_within_tme"] < 0.6 < f["boundary_within_tme"]
-
-
-_CACHE: dict = {}
-
-
-def _builtin_result():
-    """The library result of the same run as ``builtin_run`` (seed 0), for geometry checks."""
-    if "r" not in _CACHE:
-        _CACHE["r"] = run_demo(builtin_floor(), builtin_route(), seed=0)
-    return _CACHE["r"]
 
 
 def test_raw_odometry_fails_the_criteria(tmp_path):

@@ -8,6 +8,7 @@ import numpy as np
 import shapely
 from _synthetic import scan_of
 
+from fuzzybrep import evidence
 from fuzzybrep.build import BuildConfig, build_map
 from fuzzybrep.scans.scan import Scan
 
@@ -87,3 +88,41 @@ def test_edges_are_tagged_obstacle_or_frontier():
     w = np.roll(v, -1, axis=0)
     on_floor = (np.abs(v[:, 1]) < 0.05) & (np.abs(w[:, 1]) < 0.05) & (np.abs(v[:, 0] - w[:, 0]) > 1.0)
     assert on_floor.any() and (m.principal.kinds[on_floor] == 0).all()
+
+
+def pane_rays(gap_ys, through_hit: bool, through_length: float = 3.5):
+    """Returns from a pane at x = 2 at heights ``gap_ys``, then one beam from (0, 0) along +x through
+    its gap at y = 0: with no return (``through_hit`` False, claiming ``through_length``) or
+    returning from x = 3."""
+    n = len(gap_ys)
+    oy = np.r_[np.asarray(gap_ys, float), 0.0]
+    hit = np.r_[np.ones(n, bool), through_hit]
+    hit_range = np.r_[np.full(n, 2.0), 3.0 if through_hit else 8.0]
+    length = np.r_[np.full(n, 2.0), 3.0 if through_hit else through_length]
+    return evidence.Rays(np.zeros(n + 1), oy, np.ones(n + 1), np.zeros(n + 1), length, np.arange(n + 1.0), hit, hit_range)
+
+
+def free_through_the_gap(gap_ys, through_hit: bool, bridge: float) -> float:
+    cfg = evidence.EvidenceConfig(clear=False, no_return_bridge=bridge)
+    rays = pane_rays(gap_ys, through_hit)
+    return float(evidence.clip(rays, evidence.gather(rays, cfg), cfg)[-1])
+
+
+def test_a_no_return_beam_stops_at_the_pane_between_sparse_returns():
+    pane = [-0.6, -0.3, 0.3, 0.6]  # glass answered these beams; ours went through the 0.6 m gap
+    assert 1.9 <= free_through_the_gap(pane, through_hit=False, bridge=1.0) <= 2.05
+    # without the bridge it claims its whole no_return_free through the pane
+    assert free_through_the_gap(pane, through_hit=False, bridge=0.0) == 3.5
+    # returns more than the bridge apart are not one surface: a doorway
+    assert free_through_the_gap([-0.6, 0.6], through_hit=False, bridge=1.0) == 3.5
+    # a beam that returned from behind the gap saw free space: it is judged on the cells it crossed
+    assert free_through_the_gap(pane, through_hit=True, bridge=1.0) == 3.0
+
+
+def test_bridged_joins_occupied_cells_closer_than_the_span():
+    ev = evidence.Evidence(np.zeros(2), 0.05, (40, 40), np.zeros(1600, np.int32), np.zeros(1600, bool))
+    ev.occupied[10 * 40 + 10] = ev.occupied[10 * 40 + 24] = True  # 0.7 m apart along a row
+    ev.occupied[30 * 40 + 5] = True  # 1 m from both
+    row = evidence.bridged(ev, 0.8).reshape(40, 40)
+    assert row[10, 10:25].all() and row.sum() == 15 + 1
+    assert evidence.bridged(ev, 0.5).sum() == 3

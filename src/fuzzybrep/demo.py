@@ -55,7 +55,8 @@ def no_return_reach(route: Route) -> float:
     the beams within a few degrees of its axis return nothing (the far end is beyond 8 m); if they
     claim nothing, every stretch between two stops keeps a diamond of unknown space on its axis,
     a hole in the map. Claiming half the gap closes it from both sides; claiming no more keeps
-    the needles that beams through glass draw short.
+    short the needles that beams through glass draw, and evidence (``no_return_bridge``) stops
+    them at the pane.
     """
     s = route.stop_distances()
     gaps = np.diff(np.r_[s, route.length if route.closed else s[-1]])
@@ -68,7 +69,9 @@ def build_config(route: Route, filtered: bool = True) -> BuildConfig:
 
     filtered    the spike filter cuts back groups of up to 12 beams reaching 0.5 m beyond both
                 neighbours (glass, and doorways seen from afar); evidence clips every ray at
-                obstacles other scans saw, never clearing them (the simulated world is static).
+                obstacles other scans saw, never clearing them (the simulated world is static),
+                and every no-return beam also where it crosses between two obstacle cells
+                less than 1 m apart (a pane between its sparse returns; evidence.bridged).
     unfiltered  neither: a plain union of scan polygons, glass spikes and all (thesis Figure 5.8).
 
     Both trust returns up to the LMS200's 8 m and let no-return beams claim ``no_return_reach``.

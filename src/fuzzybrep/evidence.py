@@ -17,7 +17,10 @@ all scans saw:
    fewer than ``solid_hits`` times and by less than ``block_ratio`` of the rays that crossed it
    is noise at the edge of something (a mixed pixel, pose jitter, a passing leg) and stops none.
    Among evidence of standing the newest wins, both ways (thesis 6.2, future work 2): an
-   obstacle put down later stops the older rays that crossed its place;
+   obstacle put down later stops the older rays that crossed its place. A beam with no return
+   that claims free space (``no_return_free``) is weaker still: nothing answered it, so it may
+   have passed through glass between sparse returns. It also stops where it crosses the line
+   between two occupied cells less than ``no_return_bridge`` apart (``bridged``);
 5. after the union, occupied cells hit ``carve_hits`` times or more that the free space still
    swallowed (a thin wall seen from both sides, whose two sides' free space meets through pose
    error) are cut back out (``carve``).
@@ -50,6 +53,7 @@ class EvidenceConfig:
     carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
+    no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
     chunk: int = 2_000_000  #: samples per batch, to bound memory
     cache: int = 16_000_000  #: keep the ray samples between the two passes if there are no more
 
@@ -224,6 +228,35 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     return ev
 
 
+def bridged(ev: Evidence, span: float) -> np.ndarray:
+    """(ny*nx,) bool: occupied, or on the segment between two occupied cells less than ``span`` apart.
+
+    Step 4's evidence for beams with no return. Glass answers a beam now and then, so its
+    returns, even from many scans, are points with gaps, and a beam through a gap sees nothing
+    within range; joining every two obstacle cells closer than ``span`` (a door's width: the
+    spike filter's ``min_gap``) turns the points back into the pane.
+    """
+    from scipy.spatial import cKDTree
+
+    ny, nx = ev.shape
+    occ = np.flatnonzero(ev.occupied)
+    out = ev.occupied.copy()
+    if len(occ) < 2:
+        return out
+    ij = np.c_[occ % nx, occ // nx].astype(np.float64)
+    pairs = cKDTree(ij).query_pairs(span / ev.cell, output_type="ndarray")
+    a, b = ij[pairs[:, 0]], ij[pairs[:, 1]]
+    gap = np.abs(b - a).max(axis=1)
+    far = gap > 1  # neighbouring cells leave nothing between them
+    a, b, gap = a[far], b[far], gap[far]
+    n = (2 * gap).astype(np.int64)  # half-cell steps
+    owner = np.repeat(np.arange(len(a)), n - 1)
+    t = (spans(np.ones(len(n), np.int64), n - 1) / n[owner])[:, None]
+    p = np.rint(a[owner] + t * (b - a)[owner]).astype(np.int64)
+    out[p[:, 1] * nx + p[:, 0]] = True
+    return out
+
+
 def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np.ndarray:
     """Each ray's free range, stopped at the first occupied cell in front of its own end (step 4)."""
     out = rays.length.copy()
@@ -231,6 +264,8 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     # evidence at the beam's own end is its own return, not a conflict
     own_end = np.where(rays.hit, rays.hit_range, np.inf) - cfg.own_margin
     nx = ev.shape[1]
+    claims = ~rays.hit & (rays.length > 0)  # no-return beams that claim free space (``no_return_free``)
+    wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and claims.any() else None
 
     def first_conflict(chunk):
         if len(chunk) == 4:  # kept by gather
@@ -239,7 +274,8 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
             lo, hi = chunk
             ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
         d = k * cfg.step
-        occ = ev.occupied[c] & (d < own_end[ray])
+        occ = ev.occupied[c] if wide is None else np.where(rays.hit[ray], ev.occupied[c], wide[c])
+        occ &= d < own_end[ray]
         r, dd = ray[occ], d[occ]
         # samples come ray by ray in order of distance: the first of each ray is the nearest
         first = np.flatnonzero(np.r_[True, r[1:] != r[:-1]]) if len(r) else np.zeros(0, np.int64)
@@ -248,5 +284,7 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     jobs = ev.samples if ev.samples is not None else list(_chunks(rays.length, cfg))
     ev.samples = None  # used once: give the memory back
     for r, d in _parallel(first_conflict, jobs):
-        out[r] = np.minimum(out[r], np.maximum(d - cfg.step, 0.0))
+        # a return stops short of the evidence it conflicts with; a no-return beam reaches the
+        # surface the bridge stands for
+        out[r] = np.minimum(out[r], np.maximum(np.where(rays.hit[r], d - cfg.step, d), 0.0))
     return out

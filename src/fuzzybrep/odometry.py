@@ -123,9 +123,19 @@ def umbmark(
         x_cg_cw=float(x_cw), y_cg_cw=float(y_cw), x_cg_ccw=float(x_ccw), y_cg_ccw=float(y_ccw),
         r_cw=r_cw, r_ccw=r_ccw, E_max_syst=max(r_cw, r_ccw),  # Eq. 3
         alpha_deg=alpha, beta_deg=beta, R=R, E_d=E_d, E_b=E_b,
-        drift_factor=(wheel * E_d - wheel) * 10.0,
-        rev_count=rev_count / E_b,
+        drift_factor=drift_factor(E_d, wheel),
+        rev_count=corrected_rev_count(E_b, rev_count),
     )
+
+
+def drift_factor(E_d: float, wheel: float = WHEEL_MM) -> float:
+    """Appendix I part IV: the Pioneer's driftFactor = (wheel · E_d - wheel) · 10."""
+    return (wheel * E_d - wheel) * 10.0
+
+
+def corrected_rev_count(E_b: float, rev_count: float = REV_COUNT) -> float:
+    """Appendix I part IV: the calibrated revCount = revCount / E_b."""
+    return rev_count / E_b
 
 
 def total_maximum_error(odometry_error: float, lrf_error: float = 15.0) -> float:
