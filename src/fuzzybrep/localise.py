@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .scans.scan import Scan
-from .simulate import SimRun, wrap
+from .scans.scan import wrap
+from .simulate import SimRun
 
 MODELS = ("relocalised", "odometry", "true")
 

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import membership
 from .errors import UMBmarkError
 from .mapfile import write_atomic
 
@@ -139,8 +140,11 @@ def corrected_rev_count(E_b: float, rev_count: float = REV_COUNT) -> float:
 
 
 def total_maximum_error(odometry_error: float, lrf_error: float = 15.0) -> float:
-    """TME = |LRF error| + |odometry error| (thesis 4.1.1): 15 mm + 184.13 mm = 199.13 mm."""
-    return abs(lrf_error) + abs(odometry_error)
+    """TME from UMBmark's odometry error and the LRF's (thesis 4.1.1): 15 mm + 184.13 mm = 199.13 mm.
+
+    membership.total_maximum_error with the odometry error first and the LMS200's 15 mm default.
+    """
+    return membership.total_maximum_error(lrf_error, odometry_error)
 
 
 def _stops(a, direction: str) -> np.ndarray:

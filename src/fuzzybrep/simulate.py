@@ -25,7 +25,7 @@ import numpy as np
 
 from .errors import ScanFormatError
 from .mapfile import write_atomic
-from .scans.scan import Scan, even_bearings
+from .scans.scan import Scan, even_bearings, wrap
 from .world import FOOTPRINT, HOME, Route, World, builtin_floor, builtin_route, check_route
 
 __all__ = [
@@ -260,11 +260,6 @@ def integrate(pose: np.ndarray, ds: np.ndarray, dth: np.ndarray) -> np.ndarray:
     x = pose[0] + np.concatenate(([0.0], np.cumsum(chord * np.cos(mid))))
     y = pose[1] + np.concatenate(([0.0], np.cumsum(chord * np.sin(mid))))
     return np.column_stack((x, y, th))
-
-
-def wrap(angle):
-    """Angles into [-π, π)."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 # ------------------------------------------------------------------------------ simulation

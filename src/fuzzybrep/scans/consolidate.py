@@ -9,18 +9,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ScanValueError
-from .scan import Scan
-
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
+from .scan import Scan, wrap
 
 
 def can_consolidate(a: Scan, b: Scan, position_tol: float, heading_tol: float) -> bool:
     """True if b was taken at a's spot looking the other way."""
     return bool(
         np.hypot(*(b.pose[:2] - a.pose[:2])) <= position_tol
-        and abs(abs(_wrap(b.pose[2] - a.pose[2])) - np.pi) <= heading_tol
+        and abs(abs(wrap(b.pose[2] - a.pose[2])) - np.pi) <= heading_tol
         and not a.full_circle
         and not b.full_circle
     )
@@ -36,9 +32,9 @@ def consolidate(a: Scan, b: Scan, position_tol: float = np.inf, heading_tol: flo
         raise ScanValueError(
             b.source or "scan", None,
             f"cannot consolidate with {a.source or 'the previous scan'}: scans must share a spot and face opposite ways "
-            f"(moved {np.hypot(*(b.pose[:2] - a.pose[:2])):.3g}, turned {np.degrees(_wrap(b.pose[2] - a.pose[2])):.1f}°)",
+            f"(moved {np.hypot(*(b.pose[:2] - a.pose[:2])):.3g}, turned {np.degrees(wrap(b.pose[2] - a.pose[2])):.1f}°)",
         )
-    turn = _wrap(b.pose[2] - a.pose[2]) % (2 * np.pi)
+    turn = wrap(b.pose[2] - a.pose[2]) % (2 * np.pi)
     bb = b.bearings + turn
     step = float(np.median(np.diff(a.bearings)))
     lo, hi = a.bearings[0], a.bearings[-1]

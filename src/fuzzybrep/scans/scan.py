@@ -75,6 +75,11 @@ class Scan:
         return np.column_stack((self.pose[0] + self.ranges * np.cos(a), self.pose[1] + self.ranges * np.sin(a)))
 
 
+def wrap(angle):
+    """Angles into [-π, π)."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
 def even_bearings(n: int, fov: float = np.pi) -> np.ndarray:
     """n beams spread evenly over the field of view, both ends included (CARMEN's convention)."""
     return np.linspace(-fov / 2, fov / 2, n)
