@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from .lines import spans
 
@@ -236,14 +237,13 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
     within range; joining every two obstacle cells closer than ``span`` (a door's width: the
     spike filter's ``min_gap``) turns the points back into the pane.
     """
-    from scipy.spatial import cKDTree
-
     ny, nx = ev.shape
     occ = np.flatnonzero(ev.occupied)
     out = ev.occupied.copy()
     if len(occ) < 2:
         return out
-    ij = np.c_[occ % nx, occ // nx].astype(np.float64)
+    iy, ix = np.divmod(occ, nx)
+    ij = np.c_[ix, iy].astype(np.float64)
     pairs = cKDTree(ij).query_pairs(span / ev.cell, output_type="ndarray")
     a, b = ij[pairs[:, 0]], ij[pairs[:, 1]]
     gap = np.abs(b - a).max(axis=1)
