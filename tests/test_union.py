@@ -119,6 +119,24 @@ def test_degenerate_rings_are_refused_naming_the_vertex():
         brep.validate_ring(np.array([(0, 0), (1, 0), (1, 0), (0, 1)]))
 
 
+def test_validate_names_the_ring_of_a_second_piece():
+    """Errors in piece 2 name piece 2's own rings and number vertices within the ring."""
+    from fuzzybrep.brep import Region
+
+    sq = lambda x0, y0, s: [(x0, y0), (x0 + s, y0), (x0 + s, y0 + s), (x0, y0 + s)]  # counter-clockwise
+    principal = Region(ring(sq(0, 0, 10)), (ring(sq(2, 2, 2)[::-1]),))
+    # piece 2's second hole pokes out of its shell; GEOS names where it crosses the shell (y = 4),
+    # 0.3 from the hole's vertex 2 or 3 and at least 0.8 from any vertex of the shell
+    outside = Region(ring(sq(20, 0, 4)), (ring(sq(21, 1, 1)[::-1]), ring([(22.4, 3), (22.4, 4.3), (23.2, 4.3), (23.2, 3)])))
+    with pytest.raises(GeometryError, match="invalid region") as e:
+        BRepMap((principal, outside)).validate()
+    assert e.value.ring == "piece 2 hole 2" and e.value.vertex in (2, 3)
+    # a counter-clockwise hole in piece 2 is named as piece 2's hole, not the principal's
+    wrong_way = Region(ring(sq(20, 0, 4)), (ring(sq(21, 1, 1)),))
+    with pytest.raises(GeometryError, match="piece 2 hole 1: hole must run clockwise"):
+        BRepMap((principal, wrong_way)).validate()
+
+
 def test_map_file_round_trips_exactly(tmp_path):
     a = ring([(0, 0), (6, 0), (6, 1), (1, 1), (1, 4), (6, 4), (6, 5), (0, 5)])
     b = ring([(5, 0), (10, 0), (10, 5), (5, 5), (5, 4), (9, 4), (9, 1), (5, 1)])

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -183,20 +184,23 @@ class BRepMap:
 
     def validate(self) -> None:
         """Raise GeometryError naming the ring and vertex if any boundary is degenerate or invalid."""
-        for name, ring in zip(self.ring_names(), self.rings):
+        names = self.ring_names()
+        for name, ring in zip(names, self.rings):
             validate_ring(ring.vertices, name)
-        for k, region in enumerate(self.regions):
+        first = 0  # index in ``names`` of the region's outer ring
+        for region in self.regions:
+            region_names = names[first:first + 1 + len(region.holes)]
+            first += len(region_names)
             g = region.to_shapely()
             if not g.is_valid:
                 reason = shapely.is_valid_reason(g)
-                raise GeometryError(f"invalid region: {reason}", ring="principal" if k == 0 else f"piece {k + 1}",
-                                    vertex=_vertex_near_reason(region, reason))
+                name, vertex = locate_vertex([r.vertices for r in region.rings], region_names, reason)
+                raise GeometryError(f"invalid region: {reason}", ring=name or region_names[0], vertex=vertex)
             if region.shell.signed_area <= 0:
-                raise GeometryError("outer boundary must run counter-clockwise",
-                                    ring="principal" if k == 0 else f"piece {k + 1}")
-            for j, h in enumerate(region.holes):
+                raise GeometryError("outer boundary must run counter-clockwise", ring=region_names[0])
+            for name, h in zip(region_names[1:], region.holes):
                 if h.signed_area >= 0:
-                    raise GeometryError("hole must run clockwise", ring=f"hole {j + 1}")
+                    raise GeometryError("hole must run clockwise", ring=name)
 
     def equals_exactly(self, other: "BRepMap") -> bool:
         return (
@@ -249,8 +253,18 @@ def _nearest_vertex(v: np.ndarray, reason: str) -> int | None:
     return int(np.argmin(np.hypot(*(v - p).T))) + 1
 
 
-def _vertex_near_reason(region: Region, reason: str) -> int | None:
-    return _nearest_vertex(np.vstack([r.vertices for r in region.rings]), reason)
+def locate_vertex(rings: Sequence[np.ndarray], names: Sequence[str], reason: str) -> tuple[str | None, int | None]:
+    """(ring name, 1-based vertex in that ring) nearest the location GEOS names in ``reason``.
+
+    ``rings`` are the vertex arrays of one polygon (outer ring first, then its holes) and ``names``
+    theirs; (None, None) when the reason carries no location.
+    """
+    v = _nearest_vertex(np.vstack(rings), reason)
+    if v is None:
+        return None, None
+    ends = np.cumsum([len(r) for r in rings])
+    k = int(np.searchsorted(ends, v - 1, side="right"))
+    return names[k], v - (int(ends[k - 1]) if k else 0)
 
 
 def rings_to_shapely(rings: list[Ring]) -> np.ndarray:

@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 import shapely
 
-from .brep import FRONTIER, BRepMap, Ring, _nearest_vertex, validate_ring
+from .brep import FRONTIER, BRepMap, Ring, locate_vertex, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
@@ -775,15 +775,9 @@ def validate_map(crisp: BRepMap) -> None:
         g = region.to_shapely()
         if not g.is_valid:
             reason = shapely.is_valid_reason(g)
-            rings = region.rings
-            allv = np.vstack([r.vertices for r in rings])
-            v = _nearest_vertex(allv, reason)
-            ring_name, vertex = names[k], v
-            if v is not None:
-                sizes = np.cumsum([len(r) for r in rings])
-                j = int(np.searchsorted(sizes, v - 1, side="right"))
-                ring_name, vertex = names[k + j], v - (int(sizes[j - 1]) if j else 0)
-            raise GeometryError(f"invalid region: {reason}", ring=ring_name, vertex=vertex)
+            ring_name, vertex = locate_vertex([r.vertices for r in region.rings],
+                                              names[k:k + len(region.rings)], reason)
+            raise GeometryError(f"invalid region: {reason}", ring=ring_name or names[k], vertex=vertex)
         k += len(region.rings)
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from .brep import BRepMap, _nearest_vertex, validate_ring
+from .brep import BRepMap, locate_vertex, validate_ring
 from .errors import GeometryError, MapFileError
 from .scans.read import is_float
 
@@ -116,14 +116,8 @@ def _polygon(coords, where: str) -> shapely.Polygon:
     poly = shapely.Polygon(rings[0], rings[1:])
     if not poly.is_valid:
         reason = shapely.is_valid_reason(poly)
-        allv = np.vstack(rings)
-        v = _nearest_vertex(allv, reason)
-        name, vertex = where, None
-        if v is not None:
-            sizes = np.cumsum([len(r) for r in rings])
-            k = int(np.searchsorted(sizes, v - 1, side="right"))
-            name, vertex = names[k], v - (int(sizes[k - 1]) if k else 0)
-        raise GeometryError(f"invalid polygon: {reason}", ring=name, vertex=vertex)
+        name, vertex = locate_vertex(rings, names, reason)
+        raise GeometryError(f"invalid polygon: {reason}", ring=name or where, vertex=vertex)
     return poly
 
 
