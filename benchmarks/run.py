@@ -30,6 +30,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import statistics
 import sys
 import time
@@ -239,7 +240,8 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
             L.append(f"| {s['scans']} | {s['seconds']:.2f} | {1000 * s['seconds'] / s['scans']:.2f} | "
                      f"{s['seconds'] / base['seconds']:.2f} | {s['scans'] / base['scans']:.0f} |")
     if alpha_md:
-        L += ["", alpha_md.replace("## α-cut benchmark", "**α-cut benchmark**").replace("### ", "**").strip()]
+        # the α-cut script's own headings become bold lines, so the README keeps one "## Results"
+        L += ["", re.sub(r"^#{2,3} (.+)$", r"**\1**", alpha_md, flags=re.M).strip()]
     if demo:
         L += ["", demo]
     return "\n".join(L) + "\n"
