@@ -690,6 +690,13 @@ def _as_table(mf, tme: float | None, unit: str) -> MembershipTable:
     return MembershipTable(mf)
 
 
+def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
+    """The FM column with a frontier function of index k: k at every vertex that touches a
+    frontier edge (edge i or edge i−1, a frontier's position being less certain), ``fm`` elsewhere."""
+    frontier = kinds == FRONTIER
+    return np.where(frontier | np.roll(frontier, 1), k, fm)
+
+
 def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | list | None = None,
             tme: float | None = None, *, frontier_mf: MembershipFunction | None = None,
             validate: bool = True) -> FuzzyBRepMap:
@@ -710,12 +717,7 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
     if frontier_mf is not None:
         k = max(table.indices) + 1
         table = MembershipTable({**dict(table), k: frontier_mf})
-        rings = []
-        for r in crisp.rings:
-            frontier = r.kinds == FRONTIER
-            touches = frontier | np.roll(frontier, 1)  # edge i or edge i−1
-            rings.append(Ring(r.vertices, r.kinds, np.where(touches, k, r.fm)))
-        crisp = crisp.with_rings(rings)
+        crisp = crisp.with_rings([Ring(r.vertices, r.kinds, frontier_fm(r.kinds, r.fm, k)) for r in crisp.rings])
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)
