@@ -393,9 +393,7 @@ class FuzzyBRepMap:
         taking its vertex's function.
         """
         s = self._stack
-        V, fm = s["V"], s["fm"]
-        nxt = np.arange(len(V)) + 1
-        nxt[s["start"] + s["sizes"] - 1] = s["start"]
+        V, fm, nxt = s["V"], s["fm"], s["next"]
         a, b, mid = V, V[nxt], 0.5 * (V + V[nxt])
         same = fm == fm[nxt]
         segs = np.concatenate((np.stack((a, b), 1)[same], np.stack((a, mid), 1)[~same], np.stack((mid, b), 1)[~same]))
@@ -484,7 +482,7 @@ class FuzzyBRepMap:
         V, nxt = s["V"], s["next"]
         vin = np.vstack([ln.vin for ln in self.lines])
         vout = np.vstack([ln.vout for ln in self.lines])
-        si = np.concatenate([ln.support_in for ln in self.lines])
+        si = s["SI"]
         so = np.concatenate([ln.support_out for ln in self.lines])
         c0 = np.concatenate((V, V))
         c1 = np.concatenate((V[nxt], V[nxt]))
