@@ -67,8 +67,9 @@ class Ring:
     @property
     def signed_area(self) -> float:
         """Shoelace area: positive for counter-clockwise rings."""
-        x, y = self.vertices[:, 0], self.vertices[:, 1]
-        return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+        from .sweep import signed_area
+
+        return signed_area(self.vertices)
 
     def reversed(self) -> "Ring":
         """The same ring in the other direction; edge kinds follow their edges."""

@@ -29,8 +29,9 @@ import os
 
 import numpy as np
 
-from .brep import FRONTIER, BRepMap, Region, Ring
+from .brep import BRepMap, Region, Ring
 from .errors import MapFileError
+from .fuzzy import frontier_fm
 from .mapfile import write_atomic
 
 MAGIC = b"FBRC"
@@ -85,10 +86,9 @@ def decode_varints(buf: bytes | np.ndarray, count: int, offset: int = 0) -> tupl
 
 
 def fm_from_kinds(kinds: np.ndarray) -> np.ndarray:
-    """The FM column ``fuzzify`` gives with a frontier function: 2 where an edge at the vertex is
-    a frontier, else 1."""
-    frontier = kinds == FRONTIER
-    return np.where(frontier | np.roll(frontier, 1), 2, 1).astype(np.int32)
+    """The FM column ``fuzzify`` gives with one function and a frontier function (``frontier_fm``
+    with k = 2): 2 where an edge at the vertex is a frontier, else 1."""
+    return frontier_fm(kinds, 1, 2).astype(np.int32)
 
 
 def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> bytes:

@@ -393,9 +393,7 @@ class FuzzyBRepMap:
         taking its vertex's function.
         """
         s = self._stack
-        V, fm = s["V"], s["fm"]
-        nxt = np.arange(len(V)) + 1
-        nxt[s["start"] + s["sizes"] - 1] = s["start"]
+        V, fm, nxt = s["V"], s["fm"], s["next"]
         a, b, mid = V, V[nxt], 0.5 * (V + V[nxt])
         same = fm == fm[nxt]
         segs = np.concatenate((np.stack((a, b), 1)[same], np.stack((a, mid), 1)[~same], np.stack((mid, b), 1)[~same]))
@@ -484,7 +482,7 @@ class FuzzyBRepMap:
         V, nxt = s["V"], s["next"]
         vin = np.vstack([ln.vin for ln in self.lines])
         vout = np.vstack([ln.vout for ln in self.lines])
-        si = np.concatenate([ln.support_in for ln in self.lines])
+        si = s["SI"]
         so = np.concatenate([ln.support_out for ln in self.lines])
         c0 = np.concatenate((V, V))
         c1 = np.concatenate((V[nxt], V[nxt]))
@@ -690,6 +688,13 @@ def _as_table(mf, tme: float | None, unit: str) -> MembershipTable:
     return MembershipTable(mf)
 
 
+def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
+    """The FM column with a frontier function of index k: k at every vertex that touches a
+    frontier edge (edge i or edge i−1, a frontier's position being less certain), ``fm`` elsewhere."""
+    frontier = kinds == FRONTIER
+    return np.where(frontier | np.roll(frontier, 1), k, fm)
+
+
 def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | list | None = None,
             tme: float | None = None, *, frontier_mf: MembershipFunction | None = None,
             validate: bool = True) -> FuzzyBRepMap:
@@ -710,12 +715,7 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
     if frontier_mf is not None:
         k = max(table.indices) + 1
         table = MembershipTable({**dict(table), k: frontier_mf})
-        rings = []
-        for r in crisp.rings:
-            frontier = r.kinds == FRONTIER
-            touches = frontier | np.roll(frontier, 1)  # edge i or edge i−1
-            rings.append(Ring(r.vertices, r.kinds, np.where(touches, k, r.fm)))
-        crisp = crisp.with_rings(rings)
+        crisp = crisp.with_rings([Ring(r.vertices, r.kinds, frontier_fm(r.kinds, r.fm, k)) for r in crisp.rings])
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)

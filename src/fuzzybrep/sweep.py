@@ -58,27 +58,17 @@ def normal_vertices(vertices: np.ndarray) -> np.ndarray:
     vertices. At a spike, where the normals cancel, it points back along the incoming edge.
     """
     v = np.asarray(vertices, dtype=np.float64)
-    s = orientation(v)
-    d = np.roll(v, -1, axis=0) - v  # edge i: vertex i -> i+1
-    length = np.hypot(d[:, 0], d[:, 1])
-    if np.any(length == 0):
-        i = int(np.argmax(length == 0))
-        raise GeometryError(f"repeats vertex {(i + 1) % len(v) + 1}", vertex=i + 1)
-    d /= length[:, None]
-    # inward normal: left of the edge for a counter-clockwise ring, right for a clockwise one
-    n = s * np.column_stack((-d[:, 1], d[:, 0]))
-    b = np.roll(n, 1, axis=0) + n  # vertex i: edge i-1 and edge i
-    norm = np.hypot(b[:, 0], b[:, 1])
-    spike = norm < _SPIKE
-    if spike.any():
-        b[spike] = -np.roll(d, 1, axis=0)[spike]
-        norm[spike] = 1.0
-    return b / norm[:, None]
+    s = orientation(v)  # the ring's own shoelace sum, as ``signed_area`` gives it, decides IN
+    try:
+        return normal_vertices_stacked(v, [len(v)], own=[s])[0]
+    except GeometryError as e:  # one ring: the error names only the vertex
+        raise GeometryError(e.reason, vertex=e.vertex) from None
 
 
-def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray, own=None) -> tuple[np.ndarray, np.ndarray]:
     """``normal_vertices`` of many rings stacked in one (N, 2) array, ring k having sizes[k]
-    vertices; also returns every ring's orientation. One pass over all vertices.
+    vertices; also returns every ring's orientation (``own``: given, +1 or −1 per ring, it is
+    used as is). One pass over all vertices.
 
     Raises GeometryError with ``vertex`` (1-based, within its ring) and the ring's position in
     ``ring`` (as a string) for a ring without area or with a repeated vertex.
@@ -91,13 +81,15 @@ def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray) -> tuple[np
     nxt[start + sizes - 1] = start
     prv = np.empty_like(nxt)
     prv[nxt] = np.arange(len(v))
-    x, y = v[:, 0], v[:, 1]
-    area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
-    bad = ~np.isfinite(area) | (area == 0)
-    if bad.any():
-        raise GeometryError("ring has no area, so it has no inside to offset into", ring=str(int(np.argmax(bad))))
-    own = np.where(area > 0, 1, -1)
-    d = v[nxt] - v
+    if own is None:
+        x, y = v[:, 0], v[:, 1]
+        area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+        bad = ~np.isfinite(area) | (area == 0)
+        if bad.any():
+            raise GeometryError("ring has no area, so it has no inside to offset into", ring=str(int(np.argmax(bad))))
+        own = np.where(area > 0, 1, -1)
+    own = np.asarray(own)
+    d = v[nxt] - v  # edge i: vertex i -> i+1
     length = np.hypot(d[:, 0], d[:, 1])
     if np.any(length == 0):
         i = int(np.argmax(length == 0))
@@ -105,8 +97,9 @@ def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray) -> tuple[np
         local = i - start[k]
         raise GeometryError(f"repeats vertex {(local + 1) % sizes[k] + 1}", ring=str(int(k)), vertex=int(local) + 1)
     d /= length[:, None]
+    # inward normal: left of the edge for a counter-clockwise ring, right for a clockwise one
     n = own[ring][:, None] * np.column_stack((-d[:, 1], d[:, 0]))
-    b = n[prv] + n
+    b = n[prv] + n  # vertex i: edge i-1 and edge i
     norm = np.hypot(b[:, 0], b[:, 1])
     spike = norm < _SPIKE
     if spike.any():

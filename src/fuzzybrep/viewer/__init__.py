@@ -81,14 +81,10 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
     crisp, table = fuzzy.crisp, fuzzy.table
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
     q = coordinate_quantum(crisp.unit, max(x1 - x0, y1 - y0))
-    rings = crisp.rings
-    sizes = np.array([len(r) for r in rings])
-    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-    V = np.vstack([ln.vertices for ln in fuzzy.lines])
-    TV = np.vstack([np.column_stack((ln.T, ln.V)) for ln in fuzzy.lines])
-    xi = np.rint(V / q).astype(np.int64)
-    ti = np.rint(TV / (q / 10)).astype(np.int64)
-    fm = np.concatenate([r.fm for r in rings])
+    s = fuzzy._stack  # every ring's columns stacked in crisp.rings order
+    sizes, starts, fm = s["sizes"], s["start"], s["fm"]
+    xi = np.rint(s["V"] / q).astype(np.int64)
+    ti = np.rint(s["TV"] / (q / 10)).astype(np.int64)
     steps = _table_steps(slider_levels)
     alphas = np.arange(steps + 1) / steps
     dec = max(0, -math.floor(math.log10(q / 100) + 1e-9))
@@ -115,7 +111,7 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
         "y": _deltas(xi[:, 1], starts),
         "t": ti[:, 0].tolist(),
         "v": ti[:, 1].tolist(),
-        "kind": "".join(map(str, np.concatenate([r.kinds for r in rings]).tolist())),
+        "kind": "".join(map(str, np.concatenate([r.kinds for r in crisp.rings]).tolist())),
         "fm": int(fm[0]) if (fm == fm[0]).all() else fm.tolist(),
         "functions": functions,
         "levels": steps,
@@ -167,9 +163,7 @@ def band_quads(fuzzy, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     ``free`` are the bands on the free side (the principal polygon's IN bands, the holes' OUT
     bands), ``obstacle`` the others. The page draws the convex hull of each.
     """
-    V = np.vstack([r.vertices for r in fuzzy.crisp.rings])
-    nxt = np.concatenate([np.roll(np.arange(len(r)), -1) for r in fuzzy.crisp.rings])
-    nxt += np.repeat(np.cumsum([0] + [len(r) for r in fuzzy.crisp.rings][:-1]), [len(r) for r in fuzzy.crisp.rings])
+    V, nxt = fuzzy._stack["V"], fuzzy._stack["next"]
     # shrink: the principal polygon's IN offset and the holes' OUT ones, i.e. the free side
     shrink, grow = fuzzy.offset_vertices(alpha)
     free = np.stack((V, V[nxt], shrink[nxt], shrink), axis=1)
