@@ -84,7 +84,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         raise ValueError("no scans to build a map from")
     timer = _Timer()
     with timer("beams"):
-        beams = classify_all(scans, config.beams)
+        beams = classify_all(scans, config.beams, config.polygon)
     with timer("evidence"):
         rays = rays_of(scans, beams)
         ev = evidence.gather(rays, config.evidence) if config.use_evidence else None

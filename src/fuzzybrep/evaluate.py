@@ -20,6 +20,7 @@ from typing import Sequence
 import numpy as np
 import shapely
 
+from .polygon import PolygonConfig, depth_continuous
 from .scans.scan import Scan
 
 
@@ -42,22 +43,20 @@ def endpoints(scans: Sequence[Scan], max_range: float = 5.0) -> np.ndarray:
     return np.vstack(pts) if pts else np.zeros((0, 2))
 
 
-def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: float = 0.5) -> np.ndarray:
+def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: float = 0.5,
+                  polygon: PolygonConfig = PolygonConfig()) -> np.ndarray:
     """For every endpoint ``endpoints`` returns: does it lie on a small isolated object?
 
     A run of beams on one surface (no depth jump between neighbours, as scan polygons split
     them) less than ``max_extent`` across and nearer than the beams on both sides: a leg, a
     pole, a person. Judged from the scan alone, so it says what kind of thing was seen, not
-    whether the map knew it.
+    whether the map knew it. polygon: the scan polygons' configuration (its depth-jump test).
     """
-    from .polygon import PolygonConfig, depth_continuous
-
-    cfg = PolygonConfig()
     out = []
     for s in scans:
         r, ret = s.ranges, s.returns
         n = len(r)
-        cont = depth_continuous(r[:-1], r[1:], np.diff(s.bearings), cfg) & ret[:-1] & ret[1:]
+        cont = depth_continuous(r[:-1], r[1:], np.diff(s.bearings), polygon) & ret[:-1] & ret[1:]
         seg = np.concatenate(([0], np.cumsum(~cont)))  # segment id of every beam
         first = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
         last = np.r_[first[1:] - 1, n - 1]
@@ -166,7 +165,7 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
         cut = fz.alpha_cut(0.0, method)
         scores[method] = score(pts, cut.inner, cut.outer)
     viol = scores["exact"].violated
-    on_small = float((viol & small_objects(held, max_range)).mean()) if len(pts) else float("nan")
+    on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean()) if len(pts) else float("nan")
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting

@@ -122,21 +122,22 @@ def anchored_runs(points: np.ndarray, run_stop: np.ndarray, tol: np.ndarray, the
     return 1 + count, theta
 
 
-def hough_lines(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: LineConfig = LineConfig()) -> Lines:
+def hough_lines(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: LineConfig = LineConfig(),
+                run_stop: np.ndarray | None = None) -> Lines:
     """Lines by the anchored Hough transform (see module doc), for every run at once.
 
     points (n, 2), ranges (n,), runs (k, 2): [start, stop) index ranges of consecutive points
     that may share a line (no depth jump or gap between them). Points may belong to many scans:
     lines never cross a run's ends. Each run is a chain: its first line starts at its first
     point, every next line at the first point after the previous one. All runs advance together,
-    one line per step.
+    one line per step. run_stop: ``run_ends(runs, n)`` if the caller has it already.
     """
     n = len(points)
     runs = np.asarray(runs, np.int64).reshape(-1, 2)
     if n == 0 or len(runs) == 0:
         return _empty()
-    run_stop = np.zeros(n, np.int64)
-    run_stop[spans(runs[:, 0], runs[:, 1] - runs[:, 0])] = np.repeat(runs[:, 1], runs[:, 1] - runs[:, 0])
+    if run_stop is None:
+        run_stop = run_ends(runs, n)
     tol0 = tolerance(ranges, cfg)
     window = int(max(2, min(cfg.window, np.max(runs[:, 1] - runs[:, 0]))))
     cursor, end = runs[:, 0].copy(), runs[:, 1]
@@ -332,11 +333,14 @@ def intersect(theta1, rho1, theta2, rho2, min_angle: float = 0.0):
 def extract(points: np.ndarray, ranges: np.ndarray, runs: np.ndarray, cfg: LineConfig = LineConfig()) -> Lines:
     """Lines by the configured method, stray points absorbed, every line refitted."""
     runs = np.asarray(runs, np.int64).reshape(-1, 2)
-    lines = (hough_lines if cfg.method == "hough" else iepf_lines)(points, ranges, runs, cfg)
+    # the Hough's anchors and the stray points' merge both stop at a run's end: found once here
+    run_end = run_ends(runs, len(points))
+    if cfg.method == "hough":
+        lines = hough_lines(points, ranges, runs, cfg, run_end)
+    else:
+        lines = iepf_lines(points, ranges, runs, cfg)
     if len(lines) == 0:
         return lines
-    run_end = np.zeros(len(points), np.int64)
-    run_end[spans(runs[:, 0], runs[:, 1] - runs[:, 0])] = np.repeat(runs[:, 1], runs[:, 1] - runs[:, 0])
     loose = tolerance(ranges, cfg) * cfg.relax[-1]
     lines = absorb_strays(points, lines, loose, run_end)
     lines = fit_lines(points, lines.start, lines.stop, cfg.min_points)
@@ -361,6 +365,14 @@ def demote_misfits(points: np.ndarray, lines: Lines, tol: np.ndarray, min_points
     stop = np.concatenate((lines.stop[~bad], singles + 1))[order]
     start = start[order]
     return fit_lines(points, start, stop, min_points)
+
+
+def run_ends(runs: np.ndarray, n: int) -> np.ndarray:
+    """For each of n points, the stop of the run [start, stop) that holds it (0 outside runs)."""
+    count = runs[:, 1] - runs[:, 0]
+    out = np.zeros(n, np.int64)
+    out[spans(runs[:, 0], count)] = np.repeat(runs[:, 1], count)
+    return out
 
 
 def spans(start: np.ndarray, count: np.ndarray) -> np.ndarray:

@@ -44,13 +44,18 @@ class BeamConfig:
     max_pairs: int = 6  #: jumps back tried for each jump away
 
 
-def classify(scan: Scan, cfg: BeamConfig = BeamConfig()) -> tuple[np.ndarray, np.ndarray]:
+def classify(scan: Scan, cfg: BeamConfig = BeamConfig(),
+             polygon: PolygonConfig = PolygonConfig()) -> tuple[np.ndarray, np.ndarray]:
     """(free, status) of every beam of one scan, before any evidence from other scans."""
-    return classify_all([scan], cfg)[0]
+    return classify_all([scan], cfg, polygon)[0]
 
 
-def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig()) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(free, status) of every beam of every scan; scans with the same beam count go together."""
+def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig(),
+                 polygon: PolygonConfig = PolygonConfig()) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(free, status) of every beam of every scan; scans with the same beam count go together.
+
+    polygon: the scan polygons' configuration, whose depth-jump test the spike filter shares.
+    """
     out: list = [None] * len(scans)
     groups: dict[tuple[int, bool], list[int]] = {}
     for k, s in enumerate(scans):
@@ -63,22 +68,23 @@ def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig()) -> list[
         free = np.where(status == RETURN, r, np.where(status == FAR, cfg.max_usable, min(cfg.no_return_free, cfg.max_usable)))
         if cfg.spike_width > 0 and n >= 3:
             b = np.stack([scans[k].bearings for k in idx])
-            free, status = despike(free, status, b, cfg, full)
+            free, status = despike(free, status, b, cfg, full, polygon)
         for j, k in enumerate(idx):
             out[k] = (free[j], status[j])
     return out
 
 
-def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig, full_circle: bool = False):
+def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig, full_circle: bool = False,
+            polygon: PolygonConfig = PolygonConfig()):
     """Cut back the beams that passed through a narrow opening (see the module doc).
 
     free, status, bearings: (S, n) arrays, one row per scan. An opening runs from a depth jump
     away from the sensor (beam lo near, lo + 1 far) to a later jump back (hi - 1 far, hi near),
-    the same test that splits scan polygons. It is narrow if lo's and hi's endpoints are less
-    than ``min_gap`` apart and every beam between reaches at least ``spike_jump`` beyond the
-    segment joining them; such beams are cut back to that segment. Up to ``max_pairs`` jumps back
-    are tried for each jump away, the nearest first; openings wider than ``spike_width`` beams
-    are not examined.
+    the same test that splits scan polygons (with ``polygon``, their configuration). It is narrow
+    if lo's and hi's endpoints are less than ``min_gap`` apart and every beam between reaches at
+    least ``spike_jump`` beyond the segment joining them; such beams are cut back to that segment.
+    Up to ``max_pairs`` jumps back are tried for each jump away, the nearest first; openings wider
+    than ``spike_width`` beams are not examined.
     """
     S, n = free.shape
     f = free.copy()
@@ -90,7 +96,7 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
     # the flanks must be returns (they bound the opening); the beams through it are any that claim
     # free space, a no-return beam with ``no_return_free`` included
     reach = f > 0
-    cont = depth_continuous(f[:, :-1], f[:, 1:], db, PolygonConfig()) & reach[:, :-1] & reach[:, 1:]
+    cont = depth_continuous(f[:, :-1], f[:, 1:], db, polygon) & reach[:, :-1] & reach[:, 1:]
     away = ~cont & known[:, :-1] & reach[:, 1:] & (f[:, 1:] > f[:, :-1])  # lo = i, first beam of the group i + 1
     back = ~cont & reach[:, :-1] & known[:, 1:] & (f[:, :-1] > f[:, 1:])  # hi = j + 1, last beam of the group j
     ra, ia = np.nonzero(away)

@@ -1,0 +1,67 @@
+"""The beam filters judge depth jumps with the caller's PolygonConfig, not the default one."""
+
+from __future__ import annotations
+
+import numpy as np
+from _synthetic import room, scan_of
+
+import fuzzybrep.evaluate as evaluate
+from fuzzybrep.build import BuildConfig, build_map
+from fuzzybrep.polygon import CLIPPED, RETURN, PolygonConfig
+from fuzzybrep.scans import filters
+from fuzzybrep.scans.filters import classify
+from fuzzybrep.scans.scan import Scan, even_bearings
+
+# a depth-jump allowance of 10 m: no range change in these scans counts as a jump
+NO_JUMPS = PolygonConfig(jump_floor=10.0)
+
+
+def spike_scan() -> Scan:
+    r = np.full(181, 2.0)
+    r[50] = 7.0  # one beam through glass
+    return Scan(r, even_bearings(181), np.zeros(3), 0.0, 81.83)
+
+
+def test_spike_filter_uses_the_given_polygon_config():
+    free, status = classify(spike_scan())
+    assert status[50] == CLIPPED and free[50] < 2.1
+    # where the polygons see one surface, so does the spike filter: nothing to cut back
+    free, status = classify(spike_scan(), polygon=NO_JUMPS)
+    assert (status == RETURN).all() and free[50] == 7.0
+
+
+def test_build_map_gives_the_spike_filter_its_polygon_config(monkeypatch):
+    seen = []
+    despike = filters.despike
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("polygon", args[5] if len(args) > 5 else None))
+        return despike(*args, **kwargs)
+
+    monkeypatch.setattr(filters, "despike", spy)
+    build_map([spike_scan()], BuildConfig(polygon=NO_JUMPS, use_evidence=False))
+    assert seen and all(p is NO_JUMPS for p in seen)
+
+
+def test_small_objects_uses_the_given_polygon_config():
+    r = np.full(181, 3.0)
+    r[90:93] = 1.0  # a leg in front of the wall
+    scan = Scan(r, even_bearings(181), np.zeros(3), 0.0, 81.83)
+    small = evaluate.small_objects([scan])
+    assert small[90:93].all() and small.sum() == 3
+    # with no depth jumps the leg is part of one long surface
+    assert not evaluate.small_objects([scan], polygon=NO_JUMPS).any()
+
+
+def test_evaluate_log_gives_small_objects_its_polygon_config(monkeypatch):
+    seen = []
+    small_objects = evaluate.small_objects
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs.get("polygon"))
+        return small_objects(*args, **kwargs)
+
+    monkeypatch.setattr(evaluate, "small_objects", spy)
+    scans = [scan_of(room(6, 4), (1.5 + 0.5 * k, 2.0, 0.3 * k), n=181, t=float(k)) for k in range(4)]
+    evaluate.evaluate_log(scans, holdout=2, config=BuildConfig(polygon=NO_JUMPS))
+    assert seen == [NO_JUMPS]
