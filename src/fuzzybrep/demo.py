@@ -28,7 +28,7 @@ from .fuzzy import AlphaCut, FuzzyBRepMap, fuzzify
 from .localise import MODELS, PoseErrors, pose_errors, scan_poses, with_poses
 from .odometry import SIDE_MM, UMBmarkResult, total_maximum_error, umbmark
 from .simulate import DiffDrive, Laser, Route, SimRun, World, consolidate, simulate_run, umbmark_runs
-from .truth import TruthScore, fraction_inside, fraction_within, hausdorff, length_inside, seen_walls
+from .truth import TruthScore, score_cuts, seen_walls
 
 #: the LMS200's systematic error in mm-mode (Table 5.1; thesis 4.1.1)
 LRF_ERROR_MM = 15.0
@@ -193,18 +193,8 @@ def build_and_score(name: str, scans, config: BuildConfig, tme: float, world: Wo
     built = build_map(scans, config)
     fz = fuzzify(built.crisp, tme=tme)
     support = {m: fz.alpha_cut(0.0, m) for m in ALPHA_METHODS}
-    return MapResult(name, config, built, fz, support, score_cuts(world, seen, fz, support, tme),
-                     time.perf_counter() - t0)
-
-
-def score_cuts(world: World, seen: shapely.MultiLineString, fz: FuzzyBRepMap, support: dict[str, AlphaCut],
-               tme: float) -> dict[str, TruthScore]:
-    """``truth.score`` for each α = 0 cut, computing what they share (Hausdorff) once."""
-    boundary = shapely.boundary(fz.crisp_geometry)
-    h = hausdorff(boundary, seen)
-    within = fraction_within(boundary, world.walls, tme)
-    return {m: TruthScore(float(seen.length), fraction_inside(seen, c.band), length_inside(world.walls, c.inner),
-                          within, h) for m, c in support.items()}
+    scores = score_cuts(world, seen, fz.crisp_geometry, [(c.band, c.inner) for c in support.values()], tme)
+    return MapResult(name, config, built, fz, support, dict(zip(support, scores)), time.perf_counter() - t0)
 
 
 # ------------------------------------------------------------------------------------- report
