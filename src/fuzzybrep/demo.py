@@ -28,7 +28,7 @@ from .fuzzy import AlphaCut, FuzzyBRepMap, fuzzify
 from .localise import MODELS, PoseErrors, pose_errors, scan_poses, with_poses
 from .odometry import SIDE_MM, UMBmarkResult, total_maximum_error, umbmark
 from .simulate import DiffDrive, Laser, Route, SimRun, World, consolidate, simulate_run, umbmark_runs
-from .truth import TruthScore, fraction_inside, fraction_within, hausdorff, length_inside, seen_walls
+from .truth import TruthScore, score_cuts, seen_walls
 
 #: the LMS200's systematic error in mm-mode (Table 5.1; thesis 4.1.1)
 LRF_ERROR_MM = 15.0
@@ -125,6 +125,7 @@ class DemoResult:
     poses: np.ndarray  # (S, 3) the pose the map used for each 180° scan
     errors: PoseErrors
     scans: list  # consolidated 360° scans at the poses the map used
+    seen: shapely.MultiLineString  # the wall the robot saw (``seen_walls`` from the true poses)
     maps: dict[str, MapResult]
     seed: int
     world_source: str
@@ -167,6 +168,7 @@ def run_demo(world: World, route: Route, seed: int = 0, pose_model: str = "reloc
     robot = DiffDrive.pioneer_3dx(calibrated=True)
     with timer("simulate"):
         run = simulate_run(world, route, Laser(), robot, seed=seed)
+        seen = seen_walls(world, run.true_poses)  # the truth every build is scored against
     with timer("umbmark"):
         runs = umbmark_runs(robot, SIDE_MM, seed=seed)
         um = umbmark(*runs, side=SIDE_MM)
@@ -179,32 +181,20 @@ def run_demo(world: World, route: Route, seed: int = 0, pose_model: str = "reloc
     maps = {}
     for name in BUILDS:
         with timer(f"map ({name})"):
-            maps[name] = build_and_score(name, scans, build_config(route, name == "filtered"), tme, world,
-                                         run.true_poses)
-    return DemoResult(world, route, run, robot, runs, um, tme, pose_model, poses, errors, scans, maps, seed,
+            maps[name] = build_and_score(name, scans, build_config(route, name == "filtered"), tme, world, seen)
+    return DemoResult(world, route, run, robot, runs, um, tme, pose_model, poses, errors, scans, seen, maps, seed,
                       world_source, timings)
 
 
 def build_and_score(name: str, scans, config: BuildConfig, tme: float, world: World,
-                    true_poses: np.ndarray) -> MapResult:
+                    seen: shapely.MultiLineString) -> MapResult:
     """Crisp map, fuzzy map with TME, both α = 0 cuts, and their scores against the world."""
     t0 = time.perf_counter()
     built = build_map(scans, config)
     fz = fuzzify(built.crisp, tme=tme)
     support = {m: fz.alpha_cut(0.0, m) for m in ALPHA_METHODS}
-    return MapResult(name, config, built, fz, support, score_cuts(world, true_poses, fz, support, tme),
-                     time.perf_counter() - t0)
-
-
-def score_cuts(world: World, true_poses: np.ndarray, fz: FuzzyBRepMap, support: dict[str, AlphaCut],
-               tme: float) -> dict[str, TruthScore]:
-    """``truth.score`` for each α = 0 cut, computing what they share (seen walls, Hausdorff) once."""
-    seen = seen_walls(world, true_poses)
-    boundary = shapely.boundary(fz.crisp_geometry)
-    h = hausdorff(boundary, seen)
-    within = fraction_within(boundary, world.walls, tme)
-    return {m: TruthScore(float(seen.length), fraction_inside(seen, c.band), length_inside(world.walls, c.inner),
-                          within, h) for m, c in support.items()}
+    scores = score_cuts(world, seen, fz.crisp_geometry, [(c.band, c.inner) for c in support.values()], tme)
+    return MapResult(name, config, built, fz, support, dict(zip(support, scores)), time.perf_counter() - t0)
 
 
 # ------------------------------------------------------------------------------------- report

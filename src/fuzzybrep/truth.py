@@ -123,12 +123,20 @@ def score(world: World, true_poses: np.ndarray, crisp_free, support_band, safe_i
           laser: Laser | None = None) -> TruthScore:
     """Score a map against the world: crisp_free, support_band and safe_inner are shapely
     (Multi)Polygons in metres, tme in metres (the thesis's 199.13 mm is 0.19913)."""
-    seen = seen_walls(world, true_poses, laser)
+    return score_cuts(world, seen_walls(world, true_poses, laser), crisp_free, [(support_band, safe_inner)], tme)[0]
+
+
+def score_cuts(world: World, seen, crisp_free, cuts, tme: float) -> list[TruthScore]:
+    """``score`` for several cuts of one map, each a (support_band, safe_inner) pair, given its
+    seen walls (``seen_walls``): what depends on the crisp boundary alone (boundary_within_tme,
+    hausdorff) is computed once for all of them."""
     boundary = shapely.boundary(crisp_free)
-    return TruthScore(
+    within = fraction_within(boundary, world.walls, tme)
+    h = hausdorff(boundary, seen)
+    return [TruthScore(
         seen_wall_length=float(seen.length),
         support_coverage=fraction_inside(seen, support_band),
         unsafe_wall_length=length_inside(world.walls, safe_inner),
-        boundary_within_tme=fraction_within(boundary, world.walls, tme),
-        hausdorff=hausdorff(boundary, seen),
-    )
+        boundary_within_tme=within,
+        hausdorff=h,
+    ) for support_band, safe_inner in cuts]

@@ -32,28 +32,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..demo import report, run_demo, summary
-    from ..errors import WorldError
     from ..mapfile import write_atomic
-    from ..simulate import builtin_floor, builtin_route
-    from ..world import Route, World
+    from ._world import world_and_route
 
     t0 = time.perf_counter()
     out = Path(args.out)
-    if args.world:
-        world = World.from_geojson(args.world)
-        source = str(args.world)
-    else:
-        world, source = builtin_floor(), "built-in"
-    if args.route:
-        route = Route.from_file(args.route, args.spacing)
-    elif args.world:
-        try:
-            route = Route.from_file(args.world, args.spacing)
-        except WorldError as e:
-            raise WorldError(f"{e.reason} (pass --route, or give the world file a route feature)", args.world,
-                             e.feature) from None
-    else:
-        route = builtin_route(5.0 if args.spacing is None else args.spacing)
+    world, route, source = world_and_route(args)
     result = run_demo(world, route, seed=args.seed, pose_model="odometry" if args.raw_odometry else args.poses,
                       world_source=source)
 

@@ -7,9 +7,10 @@ import json
 import math
 from dataclasses import replace
 
-from ..errors import FuzzyBrepError, WorldError
+from ..errors import FuzzyBrepError
 from ..odometry import write_runs
-from ..simulate import DiffDrive, Laser, Route, World, builtin_floor, builtin_route, save_run, simulate_run, umbmark_runs
+from ..simulate import DiffDrive, Laser, save_run, simulate_run, umbmark_runs
+from ._world import world_and_route
 
 NAME = "simulate"
 HELP = "simulate the thesis's experiment: a Pioneer 3-DX with an LMS200 round a floor plan"
@@ -44,8 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    world = World.from_geojson(args.world) if args.world else builtin_floor()
-    route = _route(args, world)
+    world, route, _ = world_and_route(args)
     robot = DiffDrive.pioneer_3dx(calibrated=not args.uncalibrated)
     overrides = {k: v for k, v in (("E_d", args.ed), ("E_b", args.eb), ("slip", args.slip)) if v is not None}
     try:
@@ -85,14 +85,3 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {what} to {summary[key]}")
     return 0
 
-
-def _route(args: argparse.Namespace, world: World) -> Route:
-    if args.route:
-        return Route.from_file(args.route, args.spacing)
-    if args.world:
-        try:
-            return Route.from_file(args.world, args.spacing)
-        except WorldError as e:
-            raise WorldError(f"{e.reason} (pass --route, or give the world file a route feature)", args.world,
-                             e.feature) from None
-    return builtin_route(5.0 if args.spacing is None else args.spacing)

@@ -1,0 +1,31 @@
+"""The floor plan and route that ``simulate`` and ``demo`` share: --world, --route and --spacing.
+
+Not a command itself (cli.COMMANDS does not list it).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import WorldError
+from ..world import Route, World, builtin_floor, builtin_route
+
+
+def world_and_route(args: argparse.Namespace) -> tuple[World, Route, str]:
+    """The world, its route and where the world came from (the file, or "built-in").
+
+    The route is --route's file, else the world file's route feature, else the built-in route;
+    its stops every --spacing metres if given, else as the file says, else 5 m.
+    """
+    world = World.from_geojson(args.world) if args.world else builtin_floor()
+    if args.route:
+        route = Route.from_file(args.route, args.spacing)
+    elif args.world:
+        try:
+            route = Route.from_file(args.world, args.spacing)
+        except WorldError as e:
+            raise WorldError(f"{e.reason} (pass --route, or give the world file a route feature)", args.world,
+                             e.feature) from None
+    else:
+        route = builtin_route(5.0 if args.spacing is None else args.spacing)
+    return world, route, str(args.world) if args.world else "built-in"
