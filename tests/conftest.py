@@ -10,6 +10,7 @@ import pytest
 
 from fuzzybrep.cli import main
 from fuzzybrep.fuzzy import FuzzyBRepMap
+from fuzzybrep.scans.read import read_scans
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -35,6 +36,20 @@ def log_path(name: str) -> Path:
     if d is None or not (d / LOGS[name]).is_file():
         pytest.skip(f"real log {LOGS[name]} not found (set FUZZYBREP_DATASETS or put ../shared/datasets beside the checkout)")
     return d / LOGS[name]
+
+
+@pytest.fixture(scope="session")
+def real_scans():
+    """The scans of a real log, read once per session (freiburg takes seconds): ``real_scans(name)``.
+    Skips, saying why, when the log is absent. Shared: a test must not change the list."""
+    read: dict[str, list] = {}
+
+    def get(name: str) -> list:
+        if name not in read:
+            read[name] = read_scans(log_path(name))
+        return read[name]
+
+    return get
 
 
 @pytest.fixture(scope="session")
