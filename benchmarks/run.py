@@ -2,7 +2,8 @@
 
     python benchmarks/run.py [--datasets DIR] [--repeat 3] [--out benchmarks/results.md] [--readme README.md]
 
-For each CARMEN log in ``DIR/carmen`` (../shared/datasets by default) it measures, in one run:
+For each CARMEN log in ``DIR/carmen`` ($FUZZYBREP_DATASETS, else ../shared/datasets, by default) it
+measures, in one run:
 
 * speed: the full pipeline (read, beams, evidence, scan polygons, union, fuzzify), the median of
   ``--repeat`` runs, split per stage, as scans per second and as ratios against two baselines
@@ -47,9 +48,8 @@ from fuzzybrep.build import BuildConfig, build_map  # noqa: E402
 from fuzzybrep.fuzzy import compact_bytes, fuzzify  # noqa: E402
 from fuzzybrep.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
+from grid import LOGS, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 
-LOGS = [("intel", "carmen/intel-corrected.log.gz"), ("aces", "carmen/aces-corrected.log.gz"),
-        ("freiburg-079", "carmen/freiburg-079-corrected.log.gz")]
 START, END = "<!-- benchmark:start -->", "<!-- benchmark:end -->"
 
 
@@ -249,16 +249,16 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--datasets", default=os.environ.get("FUZZYBREP_DATASETS", str(HERE.parent.parent / "shared" / "datasets")))
+    ap.add_argument("--datasets", help="folder holding carmen/ (default: $FUZZYBREP_DATASETS, else ../shared/datasets)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(HERE / "results.md"))
     ap.add_argument("--readme", help="README whose benchmark block to replace with the report")
     ap.add_argument("--no-scaling", action="store_true")
     args = ap.parse_args(argv)
-    d = Path(args.datasets)
-    logs = [(n, d / p) for n, p in LOGS if (d / p).is_file()]
+    d = Path(args.datasets) if args.datasets else datasets()
+    logs = [(n, d / p) for n, p in LOGS.items() if (d / p).is_file()] if d else []
     if not logs:
-        print(f"no CARMEN logs under {d}: nothing to measure", file=sys.stderr)
+        print(f"no CARMEN logs under {d or '$FUZZYBREP_DATASETS or ../shared/datasets'}: nothing to measure", file=sys.stderr)
         return 1
     results = [bench_log(n, p, args.repeat) for n, p in logs]
     largest = max(logs, key=lambda lp: lp[1].stat().st_size)

@@ -1,4 +1,4 @@
-"""A small synthetic floor for the export and viewer tests, and the intel map built once.
+"""A small synthetic floor for the export and viewer tests.
 
 The floor: two rooms and a corridor (10 × 6 m of free space), three obstacles (a desk, a pillar, a
 triangle with a sharp corner whose offsets fold), a doorway whose edge is a frontier, scan poses
@@ -50,11 +50,3 @@ def floor_poses() -> np.ndarray:
 
 
 FLOOR_PATH = [[0.5, 0.5], [3.0, 2.0], [5.0, 2.0], [8.5, 3.5]]
-
-
-def build_intel(log, out) -> FuzzyBRepMap:
-    """The intel map built by ``fuzzybrep build`` (a few seconds), read back."""
-    from fuzzybrep.cli import main
-
-    assert main(["build", str(log), "--out", str(out), "--quiet"]) == 0
-    return FuzzyBRepMap.load(out)

@@ -1,4 +1,5 @@
-"""Shared fixtures: where the real CARMEN logs are, and a skip when they are absent."""
+"""Shared fixtures: where the real CARMEN logs are, a skip when they are absent, and the maps built from
+them (a few seconds each), built once per session."""
 
 from __future__ import annotations
 
@@ -6,6 +7,10 @@ import os
 from pathlib import Path
 
 import pytest
+
+from fuzzybrep.cli import main
+from fuzzybrep.fuzzy import FuzzyBRepMap
+from fuzzybrep.scans.read import read_scans
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -31,3 +36,35 @@ def log_path(name: str) -> Path:
     if d is None or not (d / LOGS[name]).is_file():
         pytest.skip(f"real log {LOGS[name]} not found (set FUZZYBREP_DATASETS or put ../shared/datasets beside the checkout)")
     return d / LOGS[name]
+
+
+@pytest.fixture(scope="session")
+def real_scans():
+    """The scans of a real log, read once per session (freiburg takes seconds): ``real_scans(name)``.
+    Skips, saying why, when the log is absent. Shared: a test must not change the list."""
+    read: dict[str, list] = {}
+
+    def get(name: str) -> list:
+        if name not in read:
+            read[name] = read_scans(log_path(name))
+        return read[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def built_map(tmp_path_factory):
+    """``fuzzybrep build LOG --out NAME.json --quiet`` of a real log, run once per session and shared by
+    every test file that needs it: ``built_map(name)`` is (the map file, the map read back). Skips,
+    saying why, when the log is absent."""
+    built: dict[str, tuple[Path, FuzzyBRepMap]] = {}
+
+    def get(name: str) -> tuple[Path, FuzzyBRepMap]:
+        if name not in built:
+            log = log_path(name)
+            out = tmp_path_factory.mktemp("built") / f"{name}.json"  # export names its files after the map's
+            assert main(["build", str(log), "--out", str(out), "--quiet"]) == 0
+            built[name] = out, FuzzyBRepMap.load(out)
+        return built[name]
+
+    return get

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from _floor import TME, build_intel, floor_map, floor_poses
-from conftest import log_path
+from _floor import TME, floor_map, floor_poses
 from fuzzybrep.cli import main
 from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
                               grey_levels, membership_raster, mu_from_grey, write_ros)
@@ -132,9 +131,9 @@ def test_ros_export_of_a_map_in_millimetres_is_in_metres(tmp_path, capsys):
 
 
 @pytest.mark.reallog
-def test_intel_ros_export_free_area_within_5_percent(tmp_path):
-    fuzzy = build_intel(log_path("intel"), tmp_path / "intel.json")
-    assert run("export", tmp_path / "intel.json", "--ros", tmp_path / "ros") == 0
+def test_intel_ros_export_free_area_within_5_percent(built_map, tmp_path):
+    path, fuzzy = built_map("intel")
+    assert run("export", path, "--ros", tmp_path / "ros") == 0
     m = read_ros_map(tmp_path / "ros" / "intel.yaml")
     occ = m.occupancy()
     free = np.count_nonzero(occ == 0) * m.resolution ** 2

@@ -18,8 +18,6 @@ from fuzzybrep.scans.read import read_scans
 from fuzzybrep.scans.scan import Scan
 from fuzzybrep.simulate import World, cast_rays
 
-from conftest import log_path
-
 RES = 0.05
 NO_CLAMP = (-math.inf, math.inf)
 # walls through cell centres (x = 0.025 + 0.05 k), so no return lands on a cell boundary
@@ -264,8 +262,8 @@ INTEL_FREE_AREA = 475.0
 
 
 @pytest.mark.reallog
-def test_intel_grid_free_area_and_round_trip(tmp_path):
-    scans = read_scans(log_path("intel"))
+def test_intel_grid_free_area_and_round_trip(real_scans, tmp_path):
+    scans = real_scans("intel")
     g = occupancy_grid(scans, 0.05)
     assert g.free_area() == pytest.approx(INTEL_FREE_AREA, rel=0.10)
     assert g.occupied().sum() > 5000  # walls all round the lab

@@ -18,7 +18,6 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from conftest import log_path
 from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
@@ -371,12 +370,9 @@ if os.environ.get("FUZZYBREP_SLOW_TESTS"):
 
 
 @pytest.fixture(scope="module", params=REAL)
-def real(request, tmp_path_factory):
+def real(request, built_map):
     """A map built by ``fuzzybrep build`` from a CARMEN log, loaded, and its α = 0 cut."""
-    log = log_path(request.param)
-    out = tmp_path_factory.mktemp(request.param) / "map.json"
-    assert main(["build", str(log), "--out", str(out), "--quiet"]) == 0
-    fz = FuzzyBRepMap.load(out)
+    out, fz = built_map(request.param)
     return request.param, out, fz, planner(fz, 0.0).free  # the α-cut, kept for every radius
 
 

@@ -4,21 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import log_path
 
 from fuzzybrep import evaluate as E
 from fuzzybrep.brep import FRONTIER, OBSTACLE
 from fuzzybrep.build import BuildConfig, build_map
 from fuzzybrep.fuzzy import compact_bytes, fuzzify
 from fuzzybrep.grid import occupancy_grid
-from fuzzybrep.scans.read import read_scans
 
 NAMES = ["intel", "aces", "freiburg"]
 
 
 @pytest.fixture(scope="module", params=NAMES)
-def built(request):
-    scans = read_scans(log_path(request.param))
+def built(request, real_scans):
+    scans = real_scans(request.param)
     return request.param, scans, build_map(scans)
 
 
@@ -50,8 +48,8 @@ def test_fuzzy_map_is_at_least_20_times_smaller_than_the_5cm_grid(built):
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_held_out_scans_are_predicted(name):
-    scans = read_scans(log_path(name))
+def test_held_out_scans_are_predicted(name, real_scans):
+    scans = real_scans(name)
     e = E.evaluate_log(scans, 2, BuildConfig())
     assert e.exact.explained >= 0.95
     # an obstacle where the map promises free space: rare. On ACES most of the held-out

@@ -13,9 +13,8 @@ import shapely
 from hypothesis import HealthCheck, given, settings
 
 from _browser import chromium_driver
-from _floor import FLOOR_PATH, build_intel, floor_map, floor_poses
+from _floor import FLOOR_PATH, floor_map, floor_poses
 from _fuzzy_shapes import crisp_maps, dumbbell, thesis_map
-from conftest import log_path
 from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
 from fuzzybrep.errors import MapFileError
@@ -325,9 +324,9 @@ def test_page_band_hulls_are_the_map_bands(browser, floor, floor_page):
 
 @pytest.mark.browser
 @pytest.mark.reallog
-def test_intel_page_in_chromium(browser, tmp_path):
-    fuzzy = build_intel(log_path("intel"), tmp_path / "intel.json")
-    assert run("view", tmp_path / "intel.json", "--html", tmp_path / "intel.html") == 0
+def test_intel_page_in_chromium(browser, built_map, tmp_path):
+    path, fuzzy = built_map("intel")
+    assert run("view", path, "--html", tmp_path / "intel.html") == 0
     size = (tmp_path / "intel.html").stat().st_size
     assert size < 1_500_000  # about 0.5 MB for 22 705 vertices and 910 poses
     open_page(browser, tmp_path / "intel.html")
