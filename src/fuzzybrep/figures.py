@@ -198,13 +198,10 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Rectangle
 
-    from .truth import seen_walls
-
     m = result.maps["filtered"]
     cut = m.support["sweep"]
     world = result.world
-    seen = seen_walls(world, result.run.true_poses)
-    missed = shapely.difference(seen, cut.band)
+    missed = shapely.difference(result.seen, cut.band)
     unsafe = shapely.intersection(world.walls, cut.inner)
     whole = _padded(shapely.union(world.free, cut.outer).bounds)
     zoom = windows(result)["zoom"]
