@@ -1,4 +1,4 @@
-"""The beam filters judge depth jumps with the caller's PolygonConfig, not the default one."""
+"""The beam filters: the spike filter on 360° scans, and depth jumps judged with the caller's PolygonConfig."""
 
 from __future__ import annotations
 
@@ -65,3 +65,30 @@ def test_evaluate_log_gives_small_objects_its_polygon_config(monkeypatch):
     scans = [scan_of(room(6, 4), (1.5 + 0.5 * k, 2.0, 0.3 * k), n=181, t=float(k)) for k in range(4)]
     evaluate.evaluate_log(scans, holdout=2, config=BuildConfig(polygon=NO_JUMPS))
     assert seen == [NO_JUMPS]
+
+
+def full_turn_scan(r: np.ndarray) -> Scan:
+    n = len(r)
+    return Scan(r, -np.pi + 2 * np.pi * np.arange(n) / n, np.zeros(3), 0.0, 81.83)
+
+
+def test_spike_filter_sees_across_the_seam_of_a_full_turn():
+    """On a 360° scan the last beam neighbours the first: a spike there is cut like any other."""
+    r = np.full(360, 2.0)
+    r[[358, 359, 0, 1]] = 7.0  # four beams through glass, straddling the seam
+    r[100] = 7.0  # and one away from it
+    scan = full_turn_scan(r)
+    assert scan.full_circle
+    free, status = classify(scan)
+    spikes = [358, 359, 0, 1, 100]
+    assert (status[spikes] == CLIPPED).all() and (free[spikes] < 2.1).all()
+    rest = np.setdiff1d(np.arange(360), spikes)
+    assert (status[rest] == RETURN).all() and (free[rest] == 2.0).all()
+
+
+def test_wide_opening_across_the_seam_stays():
+    """An opening wider than min_gap stays on a 360° scan too, seam or not."""
+    r = np.full(360, 2.0)
+    r[np.r_[340:360, 0:20]] = 7.0  # 40° at 2 m: 1.4 m wide, wider than a door
+    free, status = classify(full_turn_scan(r))
+    assert (status == RETURN).all() and np.array_equal(free, r)

@@ -78,6 +78,27 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
             polygon: PolygonConfig = PolygonConfig()):
     """Cut back the beams that passed through a narrow opening (see the module doc).
 
+    free, status, bearings: (S, n) arrays, one row per scan. With ``full_circle`` (360° scans) the
+    last beam neighbours the first, so an opening may straddle the seam: the first beams are
+    appended once more, a full turn on, and what is cut there folds back onto them.
+    """
+    S, n = free.shape
+    if not full_circle:
+        return _despike(free, status, bearings, cfg, polygon)
+    m = min(cfg.spike_width + 1, n)  # an opening of spike_width beams and its far flank
+    f, st = _despike(np.concatenate((free, free[:, :m]), axis=1), np.concatenate((status, status[:, :m]), axis=1),
+                     np.concatenate((bearings, bearings[:, :m] + 2 * np.pi), axis=1), cfg, polygon)
+    out_f, out_st = f[:, :n].copy(), st[:, :n].copy()
+    wrapped = f[:, n:] < out_f[:, :m]
+    out_f[:, :m] = np.where(wrapped, f[:, n:], out_f[:, :m])
+    out_st[:, :m] = np.where(wrapped, st[:, n:], out_st[:, :m])
+    return out_f, out_st
+
+
+def _despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig,
+             polygon: PolygonConfig):
+    """The spike filter on rows of beams in order, the first and last without neighbours.
+
     free, status, bearings: (S, n) arrays, one row per scan. An opening runs from a depth jump
     away from the sensor (beam lo near, lo + 1 far) to a later jump back (hi - 1 far, hi near),
     the same test that splits scan polygons (with ``polygon``, their configuration). It is narrow
