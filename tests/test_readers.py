@@ -65,8 +65,8 @@ def test_carmen_explicit_max_range(tmp_path):
 @pytest.mark.parametrize(
     "line, field, cls, words",
     [
-        (flaser([1.0, float("nan"), 2.0]), "r_2", ScanValueError, "not finite"),
-        (flaser([1.0, -2.0, 2.0]), "r_2", ScanValueError, "negative"),
+        (flaser([1.0, float("nan"), 2.0]), "r_2", ScanValueError, "range 'nan' is not finite"),
+        (flaser([1.0, -2.0, 2.0]), "r_2", ScanValueError, "range '-2.0' is negative"),
         (flaser([1.0, "abc", 2.0]), "r_2", ScanFormatError, "not a number"),
         ("FLASER 5 1.0 2.0 3.0\n", None, ScanFormatError, "truncated"),
         ("FLASER x 1.0\n", "n", ScanFormatError, "not an integer"),

@@ -52,7 +52,7 @@ def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
     bad = ~np.isfinite(r) | (r < 0)
     if bad.any():
         i = int(np.argmax(bad))
-        raise BadLine(f"r_{i + 1}", f"range {r[i]!r} is {'negative' if r[i] < 0 else 'not finite'}", True)
+        raise BadLine(f"r_{i + 1}", f"range {parts[2 + i]!r} is {'negative' if r[i] < 0 else 'not finite'}", True)
     names = ("x", "y", "theta", "odom_x", "odom_y", "odom_theta", "timestamp")
     vals = []
     for name, tok in zip(names, parts[2 + n :]):

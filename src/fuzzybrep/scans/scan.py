@@ -48,7 +48,7 @@ class Scan:
         bad = ~np.isfinite(r) | (r < 0)
         if bad.any():
             i = int(np.argmax(bad))
-            raise ScanValueError(where, None, f"beam {i} has range {r[i]!r} (NaN, infinite or negative)")
+            raise ScanValueError(where, None, f"beam {i} has range {float(r[i])!r} (NaN, infinite or negative)")
         if r.size >= 2 and np.any(np.diff(b) <= 0):
             raise ScanValueError(where, None, "bearings must increase strictly")
         if r.size and b[-1] - b[0] >= 2 * np.pi:
