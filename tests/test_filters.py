@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
 import fuzzybrep.evaluate as evaluate
@@ -86,9 +88,25 @@ def test_spike_filter_sees_across_the_seam_of_a_full_turn():
     assert (status[rest] == RETURN).all() and (free[rest] == 2.0).all()
 
 
-def test_wide_opening_across_the_seam_stays():
-    """An opening wider than min_gap stays on a 360° scan too, seam or not."""
-    r = np.full(360, 2.0)
-    r[np.r_[340:360, 0:20]] = 7.0  # 40° at 2 m: 1.4 m wide, wider than a door
+def test_standing_in_a_doorway_keeps_the_free_space():
+    """Flanks exactly opposite put the sensor on the segment between them: that is no opening to cut."""
+    for lo, hi in [(90, 270), (10, 190), (0, 180), (179, 359)]:
+        r = np.full(360, 3.0)
+        r[[lo, hi]] = 0.45  # the door posts, 0.9 m apart, either side of the sensor
+        free, status = classify(full_turn_scan(r))
+        assert (status == RETURN).all() and np.array_equal(free, r), (lo, hi)
+
+
+@settings(max_examples=150, deadline=None)
+@given(n=st.integers(24, 180), runs=st.lists(st.tuples(st.integers(0, 179), st.integers(1, 5)), max_size=4),
+       holes=st.lists(st.integers(0, 179), max_size=3), shift=st.integers(1, 179), seed=st.integers(0, 2**16))
+def test_a_full_turn_has_no_seam(n, runs, holes, shift, seed):
+    """Turning a 360° scan by whole beams turns what the spike filter does with it: beam 0 is not special."""
+    r = np.random.default_rng(seed).uniform(1.8, 2.2, n)
+    for start, width in runs:
+        r[np.arange(start, start + width) % n] = 7.0  # beams through glass
+    r[np.asarray(holes, int) % n] = 81.83  # no return
     free, status = classify(full_turn_scan(r))
-    assert (status == RETURN).all() and np.array_equal(free, r)
+    free_t, status_t = classify(full_turn_scan(np.roll(r, shift)))
+    assert np.array_equal(status_t, np.roll(status, shift))
+    assert np.allclose(free_t, np.roll(free, shift), rtol=0, atol=1e-9)

@@ -141,6 +141,10 @@ def _despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Be
         row = ra[c]
         ax, ay, bx, by = x[row, lo], y[row, lo], x[row, hi], y[row, hi]
         ok &= np.hypot(ax - bx, ay - by) < cfg.min_gap
+        # lo to hi must turn less than half a circle: an opening is seen from one side of it. Edges
+        # opposite each other (standing in a doorway) put the sensor on the segment, where the test
+        # below would decide on rounding noise; wider openings always have beams with t < 0.
+        ok &= ax * by - ay * bx > 1e-9 * np.hypot(ax, ay) * np.hypot(bx, by)
         c, row, lo, w, ax, ay, bx, by = c[ok], row[ok], lo[ok], w[ok], ax[ok], ay[ok], bx[ok], by[ok]
         if c.size == 0:
             continue
