@@ -110,3 +110,18 @@ def test_a_full_turn_has_no_seam(n, runs, holes, shift, seed):
     free_t, status_t = classify(full_turn_scan(np.roll(r, shift)))
     assert np.array_equal(status_t, np.roll(status, shift))
     assert np.allclose(free_t, np.roll(free, shift), rtol=0, atol=1e-9)
+
+
+def test_small_objects_on_a_full_turn_have_no_seam():
+    """A leg straddling a 360° scan's seam is one small object; a wall across the seam is none."""
+    r = np.full(360, 3.0)
+    r[[358, 359, 0, 1]] = 1.0  # a leg: 4 beams at 1 m, 5 cm across
+    r[180:184] = 1.0  # another, away from the seam
+    scan = full_turn_scan(r)
+    small = evaluate.small_objects([scan])
+    assert small[[358, 359, 0, 1, 180, 181, 182, 183]].all() and small.sum() == 8
+    # turned by 2 beams the legs lie clear of the seam: the same beams (turned) are small
+    assert np.array_equal(evaluate.small_objects([full_turn_scan(np.roll(r, 2))]), np.roll(small, 2))
+    # no object, one surface all round, or one split by the seam's depth jump: nothing small
+    assert not evaluate.small_objects([full_turn_scan(np.full(360, 3.0))]).any()
+    assert not evaluate.small_objects([full_turn_scan(np.linspace(2.0, 4.0, 360))]).any()

@@ -54,18 +54,35 @@ def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: flo
     """
     out = []
     for s in scans:
-        r, ret = s.ranges, s.returns
+        r, ret, b = s.ranges, s.returns, s.bearings
         n = len(r)
-        cont = depth_continuous(r[:-1], r[1:], np.diff(s.bearings), polygon) & ret[:-1] & ret[1:]
+        k = 0  # the beam the segments are counted from
+        if s.full_circle:
+            # a 360° scan has no ends: start at a depth jump, so no surface is split at the seam,
+            # and the first segment's neighbour before it is the last beam
+            wrap = bool(depth_continuous(r[-1:], r[:1], b[:1] + 2 * np.pi - b[-1:], polygon)[0] & ret[-1] & ret[0])
+            if wrap:
+                jumps = np.flatnonzero(~(depth_continuous(r[:-1], r[1:], np.diff(b), polygon) & ret[:-1] & ret[1:]))
+                if jumps.size == 0:  # one surface all round
+                    out.append(np.zeros(int((ret & (r < max_range)).sum()), bool))
+                    continue
+                k = int(jumps[0]) + 1
+            r, ret, b = np.roll(r, -k), np.roll(ret, -k), np.roll(b, -k)
+            b = np.where(np.arange(n) >= n - k, b + 2 * np.pi, b)  # bearings increase again
+        cont = depth_continuous(r[:-1], r[1:], np.diff(b), polygon) & ret[:-1] & ret[1:]
         seg = np.concatenate(([0], np.cumsum(~cont)))  # segment id of every beam
         first = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
         last = np.r_[first[1:] - 1, n - 1]
-        e = s.endpoints()
+        e = np.roll(s.endpoints(), -k, axis=0)
         extent = np.hypot(*(e[last] - e[first]).T)
-        before = np.where(first > 0, np.where(ret[np.maximum(first - 1, 0)], r[np.maximum(first - 1, 0)], np.inf), np.inf)
-        after = np.where(last < n - 1, np.where(ret[np.minimum(last + 1, n - 1)], r[np.minimum(last + 1, n - 1)], np.inf), np.inf)
-        small = (extent < max_extent) & (before > r[first]) & (after > r[last])
-        out.append(small[seg][ret & (r < max_range)])
+        # the beam before a segment and after it (a 360° scan wraps round; a 180° one has none)
+        prev = np.where(first > 0, first - 1, n - 1 if s.full_circle else -1)
+        nxt = np.where(last < n - 1, last + 1, 0 if s.full_circle else -1)
+        before = np.where((prev >= 0) & ret[prev], r[prev], np.inf)
+        after = np.where((nxt >= 0) & ret[nxt], r[nxt], np.inf)
+        small = (extent < max_extent) & (before > r[first]) & (after > r[last]) & (last - first + 1 < n)
+        small = np.roll(small[seg], k)
+        out.append(small[s.returns & (s.ranges < max_range)])
     return np.concatenate(out) if out else np.zeros(0, bool)
 
 
