@@ -2,8 +2,9 @@
 
     python benchmarks/run.py [--datasets DIR] [--repeat 3] [--out benchmarks/results.md] [--readme README.md]
 
-For each CARMEN log in ``DIR/carmen`` ($FUZZYBREP_DATASETS, else ../shared/datasets, by default) it
-measures, in one run:
+For each CARMEN log in ``DIR/carmen`` (by default the first of $FUZZYBREP_DATASETS,
+../shared/datasets beside the checkout and /work/shared/datasets that holds carmen/) it measures,
+in one run:
 
 * speed: the full pipeline (read, beams, evidence, scan polygons, union, fuzzify), the median of
   ``--repeat`` runs, split per stage, as scans per second and as ratios against two baselines
@@ -249,7 +250,7 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--datasets", help="folder holding carmen/ (default: $FUZZYBREP_DATASETS, else ../shared/datasets)")
+    ap.add_argument("--datasets", help="folder holding carmen/ (default: the first of $FUZZYBREP_DATASETS, ../shared/datasets, /work/shared/datasets that holds carmen/)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(HERE / "results.md"))
     ap.add_argument("--readme", help="README whose benchmark block to replace with the report")

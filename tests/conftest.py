@@ -41,12 +41,17 @@ def log_path(name: str) -> Path:
 @pytest.fixture(scope="session")
 def real_scans():
     """The scans of a real log, read once per session (freiburg takes seconds): ``real_scans(name)``.
-    Skips, saying why, when the log is absent. Shared: a test must not change the list."""
-    read: dict[str, list] = {}
+    Skips, saying why, when the log is absent. Shared, so read-only: a tuple of scans whose arrays
+    refuse writes (a test that changed them would change every later test's input)."""
+    read: dict[str, tuple] = {}
 
-    def get(name: str) -> list:
+    def get(name: str) -> tuple:
         if name not in read:
-            read[name] = read_scans(log_path(name))
+            scans = tuple(read_scans(log_path(name)))
+            for s in scans:
+                for a in (s.ranges, s.bearings, s.pose):
+                    a.setflags(write=False)
+            read[name] = scans
         return read[name]
 
     return get

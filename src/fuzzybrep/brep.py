@@ -21,12 +21,20 @@ import numpy as np
 import shapely
 
 from .errors import GeometryError
+from .sweep import signed_area
 
 #: Edge kinds: an obstacle edge is where a laser return was seen; a frontier edge is the limit of
 #: what was seen (no return, maximum range, the side of a ray past an occluding object).
 OBSTACLE = np.uint8(0)
 FRONTIER = np.uint8(1)
 KIND_NAMES = {int(OBSTACLE): "obstacle", int(FRONTIER): "frontier"}
+
+
+def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
+    """The FM column with a frontier function of index k: k at every vertex that touches a
+    frontier edge (edge i or edge i−1, a frontier's position being less certain), ``fm`` elsewhere."""
+    frontier = kinds == FRONTIER
+    return np.where(frontier | np.roll(frontier, 1), k, fm)
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,8 +75,6 @@ class Ring:
     @property
     def signed_area(self) -> float:
         """Shoelace area: positive for counter-clockwise rings."""
-        from .sweep import signed_area
-
         return signed_area(self.vertices)
 
     def reversed(self) -> "Ring":

@@ -29,9 +29,8 @@ import os
 
 import numpy as np
 
-from .brep import BRepMap, Region, Ring
+from .brep import BRepMap, Region, Ring, frontier_fm
 from .errors import MapFileError
-from .fuzzy import frontier_fm
 from .mapfile import write_atomic
 
 MAGIC = b"FBRC"

@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 import shapely
 
-from .brep import FRONTIER, BRepMap, Ring, locate_vertex, validate_ring
+from .brep import BRepMap, Ring, frontier_fm, locate_vertex, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
@@ -686,13 +686,6 @@ def _as_table(mf, tme: float | None, unit: str) -> MembershipTable:
     if isinstance(mf, MembershipTable):
         return mf
     return MembershipTable(mf)
-
-
-def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
-    """The FM column with a frontier function of index k: k at every vertex that touches a
-    frontier edge (edge i or edge i−1, a frontier's position being less certain), ``fm`` elsewhere."""
-    frontier = kinds == FRONTIER
-    return np.where(frontier | np.roll(frontier, 1), k, fm)
 
 
 def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | list | None = None,

@@ -71,7 +71,8 @@ def normal_vertices_stacked(vertices: np.ndarray, sizes: np.ndarray, own=None) -
     used as is). One pass over all vertices.
 
     Raises GeometryError with ``vertex`` (1-based, within its ring) and the ring's position in
-    ``ring`` (as a string) for a ring without area or with a repeated vertex.
+    ``ring`` (as a string) for a ring with a repeated vertex, or without area (judged from its
+    vertices only when ``own`` is not given).
     """
     v = np.asarray(vertices, dtype=np.float64)
     sizes = np.asarray(sizes)

@@ -84,4 +84,3 @@ def run(args: argparse.Namespace) -> int:
         if key in summary:
             print(f"wrote {what} to {summary[key]}")
     return 0
-
