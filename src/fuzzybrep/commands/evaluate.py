@@ -36,6 +36,8 @@ def run(args) -> int:
         print(f"  {name}: explained {pct(s.explained)}, violations {pct(s.violations)}, beyond {pct(s.beyond)}")
     print(f"  of the exact band's violations, {pct(e.violations_on_small_objects)} of all endpoints lie on small "
           f"isolated objects (< 0.5 m across, in front of both neighbours: legs, people, poles)")
+    print(f"  {pct(e.violations_unseen)} of all endpoints are violations where no kept scan saw any return "
+          f"within TME: no map of the kept scans could know them")
     print(f"  free-space IoU with the {e.resolution:g} grid: {e.free_iou:.3f}")
     print(f"  bytes: fuzzy map {e.map_bytes_compact} compact ({e.map_bytes_thesis} as Table 5.3 counts) vs grid "
           f"{e.grid_bytes} ({e.grid_bytes / e.map_bytes_compact:.1f}x the compact map)")
