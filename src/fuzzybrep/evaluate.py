@@ -59,20 +59,17 @@ def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: flo
     for s in scans:
         r, ret, b = s.ranges, s.returns, s.bearings
         n = len(r)
+        cont = depth_continuous(r[:-1], r[1:], np.diff(b), polygon) & ret[:-1] & ret[1:]  # beam i and i + 1
         k = 0  # the beam the segments are counted from
         if s.full_circle:
-            # a 360° scan has no ends: start at a depth jump, so no surface is split at the seam,
-            # and the first segment's neighbour before it is the last beam
-            wrap = bool(depth_continuous(r[-1:], r[:1], b[:1] + 2 * np.pi - b[-1:], polygon)[0] & ret[-1] & ret[0])
-            if wrap:
-                jumps = np.flatnonzero(~(depth_continuous(r[:-1], r[1:], np.diff(b), polygon) & ret[:-1] & ret[1:]))
-                if jumps.size == 0:  # one surface all round
-                    out.append(np.zeros(int((ret & (r < max_range)).sum()), bool))
-                    continue
-                k = int(jumps[0]) + 1
-            r, ret, b = np.roll(r, -k), np.roll(ret, -k), np.roll(b, -k)
-            b = np.where(np.arange(n) >= n - k, b + 2 * np.pi, b)  # bearings increase again
-        cont = depth_continuous(r[:-1], r[1:], np.diff(b), polygon) & ret[:-1] & ret[1:]
+            # a 360° scan has no ends: count from a depth jump, so the seam splits no surface
+            seam = depth_continuous(r[-1:], r[:1], b[:1] + 2 * np.pi - b[-1:], polygon) & ret[-1:] & ret[:1]
+            ring = np.concatenate((cont, seam))  # beam i and i + 1 mod n
+            if ring.all():  # one surface all round
+                out.append(np.zeros(int((ret & (r < max_range)).sum()), bool))
+                continue
+            k = (int(np.argmin(ring)) + 1) % n
+            cont, r, ret = np.roll(ring, -k)[:-1], np.roll(r, -k), np.roll(ret, -k)
         seg = np.concatenate(([0], np.cumsum(~cont)))  # segment id of every beam
         first = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
         last = np.r_[first[1:] - 1, n - 1]
@@ -97,8 +94,7 @@ def seen_near(points: np.ndarray, scans: Sequence[Scan], distance: float) -> np.
     """
     from scipy.spatial import cKDTree
 
-    seen = [s.endpoints()[s.returns] for s in scans]
-    seen = np.vstack(seen) if seen else np.zeros((0, 2))
+    seen = endpoints(scans, np.inf)
     if len(points) == 0 or len(seen) == 0:
         return np.zeros(len(points), bool)
     return cKDTree(seen).query(points, distance_upper_bound=distance)[0] <= distance

@@ -82,7 +82,7 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
     last beam neighbours the first, so an opening may straddle the seam: the first beams are
     appended once more, a full turn on, and what is cut there folds back onto them.
     """
-    S, n = free.shape
+    n = free.shape[1]
     if not full_circle:
         return _despike(free, status, bearings, cfg, polygon)
     m = min(cfg.spike_width + 1, n)  # an opening of spike_width beams and its far flank
