@@ -1,4 +1,5 @@
-"""The floor plan and route that ``simulate`` and ``demo`` share: --world, --route and --spacing.
+"""The floor plan and route that ``simulate`` and ``demo`` share: --world, --route and --spacing,
+declared and resolved in one place.
 
 Not a command itself (cli.COMMANDS does not list it).
 """
@@ -9,6 +10,17 @@ import argparse
 
 from ..errors import WorldError
 from ..world import Route, World, builtin_floor, builtin_route
+
+
+def add_world_arguments(p: argparse.ArgumentParser, title: str) -> None:
+    """--world, --route and --spacing, in an argument group named ``title``."""
+    g = p.add_argument_group(title)
+    g.add_argument("--world", metavar="FILE.geojson",
+                   help="floor plan, GeoJSON in metres (default: the built-in E1-like floor)")
+    g.add_argument("--route", metavar="FILE",
+                   help="route: GeoJSON LineString (role route) or CSV of x,y waypoints in metres; "
+                        "default: the world file's route feature, or the built-in clockwise route")
+    g.add_argument("--spacing", type=float, default=None, help="metres between stops (default: the route's, else 5)")
 
 
 def world_and_route(args: argparse.Namespace) -> tuple[World, Route, str]:

@@ -7,6 +7,8 @@ import json
 import time
 from pathlib import Path
 
+from ._world import add_world_arguments
+
 NAME = "demo"
 HELP = "reproduce the thesis's experiment on a built-in (or your) floor plan and check the map against the truth"
 
@@ -15,12 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="DIR", default="fuzzybrep-demo",
                    help="folder for floorplan.geojson, map.json, report.json and the figures (default %(default)s)")
     p.add_argument("--seed", type=int, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
-    g = p.add_argument_group("your own floor plan (docs/demo.md)")
-    g.add_argument("--world", metavar="FILE.geojson", help="floor plan, GeoJSON in metres (default: the built-in E1-like floor)")
-    g.add_argument("--route", metavar="FILE",
-                   help="route: GeoJSON LineString (role route) or CSV of x,y waypoints in metres; "
-                        "default: the world file's route feature, or the built-in clockwise route")
-    g.add_argument("--spacing", type=float, default=None, help="metres between stops (default: the route's, else 5)")
+    add_world_arguments(p, "your own floor plan (docs/demo.md)")
     g = p.add_argument_group("poses the map uses")
     g.add_argument("--poses", choices=["relocalised", "odometry", "true"], default="relocalised",
                    help="relocalised (default): the robot knows its pose when it leaves each stop, so every scan "

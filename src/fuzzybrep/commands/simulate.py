@@ -10,20 +10,14 @@ from dataclasses import replace
 from ..errors import FuzzyBrepError
 from ..odometry import write_runs
 from ..simulate import DiffDrive, Laser, save_run, simulate_run, umbmark_runs
-from ._world import world_and_route
+from ._world import add_world_arguments, world_and_route
 
 NAME = "simulate"
 HELP = "simulate the thesis's experiment: a Pioneer 3-DX with an LMS200 round a floor plan"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("world and route")
-    g.add_argument("--world", metavar="FILE.geojson",
-                   help="floor plan (GeoJSON, metres; see docs/simulator.md); default: the built-in E1-like floor")
-    g.add_argument("--route", metavar="FILE",
-                   help="route: GeoJSON LineString (role route) or CSV of x,y waypoints in metres; "
-                        "default: the world file's route feature, or the built-in clockwise route")
-    g.add_argument("--spacing", type=float, default=None, help="metres between stops (default 5)")
+    add_world_arguments(p, "world and route (docs/simulator.md)")
     g = p.add_argument_group("robot (Appendix I)")
     g.add_argument("--uncalibrated", action="store_true",
                    help="odometry errors from Table I.1 (before calibration) instead of Table I.2")
