@@ -21,7 +21,7 @@ import numpy as np
 import shapely
 
 from .errors import GeometryError
-from .sweep import signed_area
+from .sweep import polygonal, signed_area
 
 #: Edge kinds: an obstacle edge is where a laser return was seen; a frontier edge is the limit of
 #: what was seen (no return, maximum range, the side of a ray past an occluding object).
@@ -76,13 +76,6 @@ class Ring:
     def signed_area(self) -> float:
         """Shoelace area: positive for counter-clockwise rings."""
         return signed_area(self.vertices)
-
-    def reversed(self) -> "Ring":
-        """The same ring in the other direction; edge kinds follow their edges."""
-        v = self.vertices[::-1]
-        # edge i of the reversed ring joins old vertices n-1-i and n-2-i, i.e. old edge n-2-i
-        k = np.roll(self.kinds[::-1], -1)
-        return Ring(v, k, self.fm[::-1])
 
     def closed_coords(self) -> np.ndarray:
         return np.vstack((self.vertices, self.vertices[:1]))
@@ -170,7 +163,7 @@ class BRepMap:
         Pieces smaller than ``min_area`` are dropped (none by default). Raises GeometryError if
         nothing with area is left or the geometry is invalid.
         """
-        polys = [g for g in shapely.get_parts(_polygonal(geom)) if g.area > min_area]
+        polys = [g for g in shapely.get_parts(polygonal(geom)) if g.area > min_area]
         if not polys:
             raise GeometryError("the map has no free space with area")
         polys.sort(key=lambda g: -g.area)
@@ -239,16 +232,6 @@ def validate_ring(vertices: np.ndarray, name: str = "ring") -> None:
         raise GeometryError(f"self-intersecting: {reason}", ring=name, vertex=_nearest_vertex(v, reason))
 
 
-def _polygonal(geom):
-    """Only the polygonal parts of a geometry (GEOS may return lines or points from a union)."""
-    if geom is None or geom.is_empty:
-        return shapely.MultiPolygon()
-    if geom.geom_type in ("Polygon", "MultiPolygon"):
-        return geom
-    parts = [g for g in shapely.get_parts(geom) if g.geom_type in ("Polygon", "MultiPolygon")]
-    return shapely.union_all(parts) if parts else shapely.MultiPolygon()
-
-
 def _nearest_vertex(v: np.ndarray, reason: str) -> int | None:
     """1-based index of the vertex nearest to the location GEOS names in ``reason``."""
     import re
@@ -300,7 +283,7 @@ def union(polygons) -> shapely.Geometry:
         # GEOS releases the GIL: unite parts on every core, then unite the parts
         with ThreadPoolExecutor(workers) as ex:
             polys = np.array(list(ex.map(shapely.union_all, np.array_split(polys, workers))), dtype=object)
-    return _polygonal(shapely.union_all(polys))
+    return polygonal(shapely.union_all(polys))
 
 
 def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplify: float = 0.0):
@@ -310,9 +293,9 @@ def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplif
     the shell or turns a piece invalid. It can squash a tiny hole into a needle with (almost) no
     area: holes under a tenth of the tolerance squared bound nothing the map can resolve.
     """
-    g = _drop_small(_polygonal(geom), min_piece_area, min_hole_area)
+    g = _drop_small(polygonal(geom), min_piece_area, min_hole_area)
     if simplify > 0 and not g.is_empty:
-        g = _polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
+        g = polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
         g = _drop_small(g, min_piece_area, max(min_hole_area, (simplify / 10) ** 2))
     return g
 
