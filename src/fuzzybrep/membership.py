@@ -390,7 +390,7 @@ def parse_spec(spec: str, tme: float | None = None) -> MembershipFunction:
     """A membership function from a command-line spec: ``TYPE[:key=value,...,flag]``.
 
     Examples: ``triangular`` (support ±``tme``), ``triangular:tme=0.2``,
-    ``triangular:in=0.1,out=0.3``, ``A1:p=5``, ``A4:p=2.5``, ``A2:p=10,truncate``. A missing
+    ``triangular:in=0.1,out=0.3``, ``A1:p=6``, ``A4:p=6`` (support ±1/6: within the default TME), ``A2:p=10,truncate``. A missing
     ``tme`` (or ``in``/``out`` for the triangular function) is taken from ``tme``.
     """
     name, _, rest = spec.strip().partition(":")
