@@ -83,6 +83,26 @@ def test_carmen_bad_lines_name_file_line_and_field(tmp_path, line, field, cls, w
     assert "bad.log" in str(err) and "line 2" in str(err)
 
 
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        # one range more than n says: before, that range was read as x and the pose shifted by one
+        ("FLASER 2 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10 host 10\n", "beam count 2 does not match the line's 14 fields"),
+        # one range fewer: before, x was read as a range and the heading as odom_x
+        ("FLASER 4 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10 host 10\n", "beam count 4 does not match the line's 14 fields"),
+        # a log without host and logger timestamp, n two short: the fields count as a long line
+        ("FLASER 1 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10\n", "there is the number '0.5'"),
+    ],
+)
+def test_carmen_beam_count_that_disagrees_with_the_ranges(tmp_path, line, words):
+    p = write_log(tmp_path / "bad.log", [GOOD[3], line, GOOD[4]])
+    with pytest.raises(ScanFormatError, match="bad.log, line 2, field n: .*" + words):
+        read_carmen(p)
+    # logs without host and logger timestamp still read
+    short = write_log(tmp_path / "short.log", ["FLASER 3 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10\n"])
+    assert read_carmen(short)[0].ranges.tolist() == [1.0, 2.0, 3.0]
+
+
 def test_carmen_skip_bad_reports_how_many(tmp_path):
     p = write_log(tmp_path / "bad.log", [GOOD[3], flaser([1.0, -1.0, 2.0]), "FLASER 9 1 2\n", GOOD[4]])
     report = ReadReport()

@@ -44,6 +44,15 @@ def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
     need = 2 + n + 7
     if len(parts) < need:
         raise BadLine(None, f"truncated: {len(parts)} fields, a FLASER line with {n} beams needs at least {need}")
+    # the ranges are not delimited: only the field count (7 numbers after them, then host and
+    # logger timestamp, which old logs lack) shows a beam count that disagrees with the ranges,
+    # which would otherwise shift ranges into the pose or the pose into the ranges
+    if len(parts) not in (need, need + 2):
+        raise BadLine("n", f"beam count {n} does not match the line's {len(parts)} fields (a FLASER line with {n} "
+                           f"beams has {need + 2}, or {need} without host and logger timestamp)")
+    if len(parts) == need + 2 and is_float(parts[need]):
+        raise BadLine("n", f"beam count {n} does not match the line: where the host should follow {n} ranges, the "
+                           f"pose and the timestamp, there is the number {parts[need]!r}")
     try:
         r = np.array(parts[2 : 2 + n], dtype=np.float64)
     except ValueError:
