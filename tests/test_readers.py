@@ -159,6 +159,10 @@ HEADER = "scan,time,x,y,theta,bearing,range\n"
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,nan\n", 4, "range", "not finite"),
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,-2\n", 4, "range", "negative"),
         ("0,0,0,0,0,-1,1\n0,0,0,0\n", 4, None, "truncated"),
+        # an extra field in a middle row: read silently before, its columns taken as they fell
+        ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,1,5\n0,0,0,0,0,1,1\n", 4, None, "8 columns, but the header has 7"),
+        # decimal commas in every row: before, a misleading "bearings must increase"
+        ("0,0,0,0,0,-1,5,1,5\n0,0,0,0,0,0,5,1,5\n", 3, None, "9 columns, but the header has 7"),
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,zero,1\n", 4, "bearing", "not a number"),
         ("0,0,0,0,0,-1,1\n0,0,0.5,0,0,0,1\n", 4, "x", "changes within scan"),
         ("0,0,0,0,0,0,1\n0,0,0,0,0,-1,1\n", 4, "bearing", "must increase"),
