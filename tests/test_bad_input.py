@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import re
+
 import pytest
 
 from fuzzybrep import cli
+from fuzzybrep.errors import MapFileError
+from fuzzybrep.mapfile import read_map
 
 
 def flaser(ranges, pose=(1.0, 2.0, 0.5), t=10.0) -> str:
@@ -38,3 +43,57 @@ def test_log_where_no_beam_returns_maps_free_space_when_asked(tmp_path):
     log = tmp_path / "blind.log"
     log.write_text("".join(flaser([5.0] * 9, (0.1 * k, 0.0, 0.0), k) for k in range(4)))
     assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet", "--no-return-free", "3"]) == 0
+
+
+# ------------------------------------------------------------------------- map files
+
+
+def square_map(path):
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy import fuzzify
+
+    fuzzify(BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)])),)), tme=0.1).save(path, poses=[[1, 1, 0, 0]])
+    return json.loads(path.read_text())
+
+
+def edit(d, what):
+    shell = d["regions"][0]["shell"]
+    if what == "bowtie":
+        shell["x"], shell["y"] = [0, 4, 0, 4], [0, 4, 4, 0]
+    elif what == "nan vertex":
+        shell["x"][2] = float("nan")
+    elif what == "two vertices":
+        shell["x"], shell["y"], shell["kind"], shell["fm"] = [0, 1], [0, 1], [0, 0], [1, 1]
+    elif what.startswith(("kind", "fm")):
+        key, value = what.split()
+        shell[key][1] = float(value) if "." in value else int(value)
+    elif what == "unit":
+        d["unit"] = 5
+    elif what == "metadata":
+        d["metadata"] = [1, 2]
+    elif what == "regions":
+        d["regions"] = {"shell": shell}
+    elif what == "pose":
+        d["scans"]["poses"][0][2] = float("nan")
+    return d
+
+
+@pytest.mark.parametrize("what, words", [
+    ("bowtie", "principal, vertex 1: self-intersecting"),            # before: no file named
+    ("nan vertex", "principal, vertex 3: coordinate is not finite"),  # before: no file named
+    ("two vertices", "principal: a polygon needs at least 3 vertices"),
+    ("kind 300", "region 0 shell, vertex 2: edge kind 300 is neither"),  # before: traceback (OverflowError)
+    ("kind 7", "region 0 shell, vertex 2: edge kind 7 is neither"),      # before: read as it was
+    ("fm 1.5", "region 0 shell, vertex 2: FM index 1.5 is not a whole number"),  # before: read as FM 1
+    ("fm 0", "FM index 0 is not a whole number from 1 up"),
+    ("unit", "unit must be a string"),                                # before: traceback (AttributeError)
+    ("metadata", "metadata must be an object"),                       # before: "cannot convert dictionary update ..."
+    ("regions", "regions must be a list"),                            # before: "string indices must be integers"
+    ("pose", "scans.poses row 1 is not finite"),                      # before: NaN written into the viewer's page
+])
+def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps(edit(square_map(p), what)))
+    fails(capsys, ["memory", p], "m.json: ", words)
+    with pytest.raises(MapFileError, match=re.escape(words)):
+        read_map(p)
