@@ -97,3 +97,34 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     fails(capsys, ["memory", p], "m.json: ", words)
     with pytest.raises(MapFileError, match=re.escape(words)):
         read_map(p)
+
+
+# ------------------------------------------------------------------------- options
+
+
+@pytest.mark.parametrize("argv, words", [
+    # before: a traceback (ValueError from LineConfig, IndexError in the evidence grid, ValueError from
+    # holdout_split or occupancy_grid or the planner, or NumPy's seed check)
+    (["build", "LOG", "--out", "M", "--theta-step", "0"], "argument --theta-step: 0 must be in (0, 45] degrees"),
+    (["build", "LOG", "--out", "M", "--max-usable", "0"], "argument --max-usable: 0 must be a positive number"),
+    (["build", "LOG", "--out", "M", "--no-return-free", "nan"], "argument --no-return-free: nan must be a finite"),
+    (["evaluate", "LOG", "--holdout", "1"], "argument --holdout: K must be at least 2"),
+    (["evaluate", "LOG", "--resolution", "0"], "argument --resolution: 0 must be a positive number"),
+    (["plan", "MAP", "--start", "0", "0", "--goal", "nan", "1"], "argument --goal: nan must be a finite number"),
+    (["demo", "--seed", "-1"], "argument --seed: seed must be ≥ 0, got -1"),
+    (["simulate", "--seed", "-1"], "argument --seed: seed must be ≥ 0, got -1"),
+    # before: accepted, and meaningless (a negative free range or hole area, a NaN tolerance)
+    (["build", "LOG", "--out", "M", "--no-return-free", "-1"], "argument --no-return-free: -1 must be a finite number ≥ 0"),
+    (["build", "LOG", "--out", "M", "--min-hole-area", "-1"], "argument --min-hole-area: -1 must be a finite number ≥ 0"),
+    (["build", "LOG", "--out", "M", "--simplify", "nan"], "argument --simplify: nan must be a finite number ≥ 0"),
+    (["grid", "LOG", "--out", "G", "--no-return-free", "-1"], "argument --no-return-free: -1 must be"),
+    # before: the grid was written outside --out (../x.pgm), or as ".yaml" and ".yaml.pgm"
+    (["grid", "LOG", "--out", "G", "--name", "../x"], "argument --name: name must be a plain file name"),
+    (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
+])
+def test_bad_options_are_usage_errors(capsys, argv, words):
+    with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written
+        cli.main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err

@@ -7,6 +7,7 @@ import json
 import time
 from pathlib import Path
 
+from ._types import seed
 from ._world import add_world_arguments
 
 NAME = "demo"
@@ -16,7 +17,7 @@ HELP = "reproduce the thesis's experiment on a built-in (or your) floor plan and
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="DIR", default="fuzzybrep-demo",
                    help="folder for floorplan.geojson, map.json, report.json and the figures (default %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
     add_world_arguments(p, "your own floor plan (docs/demo.md)")
     g = p.add_argument_group("poses the map uses")
     g.add_argument("--poses", choices=["relocalised", "odometry", "true"], default="relocalised",

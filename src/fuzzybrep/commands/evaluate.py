@@ -5,6 +5,10 @@ from __future__ import annotations
 import json
 
 from ._logopts import add_log_arguments, read_log
+from ._types import number, positive
+
+_holdout = number(lambda k: k >= 2, "K must be a whole number, got {text!r}",
+                  "K must be at least 2 (every K-th scan is held out, the rest build the map), got {text}", cast=int)
 
 NAME = "evaluate"
 HELP = "build from all scans but every K-th and score the held-out ones against the map"
@@ -12,9 +16,9 @@ HELP = "build from all scans but every K-th and score the held-out ones against 
 
 def add_arguments(p) -> None:
     add_log_arguments(p)
-    p.add_argument("--holdout", type=int, default=2, metavar="K", help="hold out every K-th scan (default 2)")
+    p.add_argument("--holdout", type=_holdout, default=2, metavar="K", help="hold out every K-th scan (default 2)")
     p.add_argument("--tme", type=float, default=None, help="TME in the map's unit (default 0.19913)")
-    p.add_argument("--resolution", type=float, default=0.05, help="occupancy-grid cell for the comparison (default 0.05)")
+    p.add_argument("--resolution", type=positive, default=0.05, help="occupancy-grid cell for the comparison (default 0.05)")
     p.add_argument("--json", action="store_true", help="print the scores as JSON")
 
 

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from ._logopts import add_log_arguments, read_log
-from ._types import positive
+from ._types import file_name, non_negative, positive
 
 NAME = "grid"
 HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map (PGM + YAML)"
@@ -15,11 +15,11 @@ HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map
 def add_arguments(p) -> None:
     add_log_arguments(p)
     p.add_argument("--out", required=True, help="folder to write NAME.pgm and NAME.yaml into")
-    p.add_argument("--name", default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
+    p.add_argument("--name", type=file_name, default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
     p.add_argument("--resolution", type=positive, default=0.05, help="cell side in metres (default 0.05)")
     p.add_argument("--max-usable", type=positive, default=8.0,
                    help="longest range whose free space and hit are trusted; farther returns mark free space up to it (default 8)")
-    p.add_argument("--no-return-free", type=float, default=0.0,
+    p.add_argument("--no-return-free", type=non_negative, default=0.0,
                    help="free range claimed along beams with no return (default 0: they mark nothing)")
     p.add_argument("--quiet", action="store_true", help="no summary")
 
