@@ -128,3 +128,24 @@ def test_bad_options_are_usage_errors(capsys, argv, words):
     assert e.value.code == 2
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------------- evaluate with nothing to score
+
+
+def test_evaluate_with_no_scan_held_out(tmp_path, capsys):
+    # before: "0 held out (every 5th)" and "explained nan %" (NaN in --json), exit 0
+    log = tmp_path / "four.log"
+    log.write_text("".join(flaser([1.0, 2.0, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    fails(capsys, ["evaluate", log, "--holdout", "5"], "four.log: 4 scan(s): holding out every 5th leaves none "
+                                                         "to score; give --holdout 2 to 4")
+    one = tmp_path / "one.log"
+    one.write_text(flaser([1.0, 2.0, 9.0]))
+    fails(capsys, ["evaluate", one, "--json"], "one.log: 1 scan(s): holding out every second leaves none to score")
+
+
+def test_evaluate_with_no_held_out_return_near_enough(tmp_path, capsys):
+    log = tmp_path / "far.log"
+    log.write_text("".join(flaser([1.0, 2.0, 9.0] if k % 2 == 0 else [6.0, 7.0, 9.0], (0.1 * k, 0.0, 0.0), k)
+                           for k in range(4)))
+    fails(capsys, ["evaluate", log], "far.log: no held-out scan has a return within 5 m")

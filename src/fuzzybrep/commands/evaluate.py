@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log
 from ._types import number, positive
 
@@ -26,8 +27,15 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..build import BuildConfig
-    from ..evaluate import evaluate_log
+    from ..evaluate import endpoints, evaluate_log, holdout_split
     scans, _ = read_log(args)
+    # with nothing to score every rate is 0/0: say so rather than print "nan %" (or NaN in --json)
+    if len(scans) < args.holdout:
+        raise ScanValueError(args.log, None, f"{len(scans)} scan(s): holding out every {_ordinal(args.holdout)} "
+                                             f"leaves none to score" + (f"; give --holdout 2 to {len(scans)}"
+                                                                        if len(scans) >= 2 else ""))
+    if len(endpoints(holdout_split(scans, args.holdout)[1])) == 0:
+        raise ScanValueError(args.log, None, "no held-out scan has a return within 5 m: nothing to score")
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
     e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
     if args.json:
@@ -49,4 +57,6 @@ def run(args) -> int:
 
 
 def _ordinal(k: int) -> str:
-    return "second" if k == 2 else "third" if k == 3 else f"{k}th"
+    if k in (2, 3):
+        return "second" if k == 2 else "third"
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
