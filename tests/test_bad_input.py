@@ -149,3 +149,35 @@ def test_evaluate_with_no_held_out_return_near_enough(tmp_path, capsys):
     log.write_text("".join(flaser([1.0, 2.0, 9.0] if k % 2 == 0 else [6.0, 7.0, 9.0], (0.1 * k, 0.0, 0.0), k)
                            for k in range(4)))
     fails(capsys, ["evaluate", log], "far.log: no held-out scan has a return within 5 m")
+
+
+# ------------------------------------------------------------------------- output paths
+
+
+def test_out_below_a_file_or_on_a_folder_fails_before_the_work(tmp_path, capsys):
+    # before: "cannot write: File exists" / "Device or resource busy", and only after the whole build
+    (tmp_path / "afile").write_text("x")
+    missing_log = tmp_path / "not-read.log"  # the output is checked first: the log is never opened
+    fails(capsys, ["build", missing_log, "--out", tmp_path / "afile" / "sub" / "m.json"],
+          "m.json: cannot write: ", "afile is a file, not a folder")
+    fails(capsys, ["build", missing_log, "--out", tmp_path], "cannot write: it is a folder (give a file name)")
+    fails(capsys, ["build", missing_log, "--out", tmp_path / "m.json", "--plot", tmp_path],
+          "cannot write: it is a folder")
+    fails(capsys, ["demo", "--out", tmp_path / "afile"], "afile is a file, not a folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys, monkeypatch):
+    log = tmp_path / "a.log"
+    log.write_text("".join(flaser([1.0, 2.0, 1.5, 2.5, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(3)))
+    out = tmp_path / "m.json"
+    assert cli.main(["build", str(log), "--out", str(out), "--quiet"]) == 0
+    before = out.read_bytes()
+
+    def full(fd):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("fuzzybrep.mapfile.os.fsync", full)
+    fails(capsys, ["build", log, "--out", out, "--quiet", "--tme", "0.5"], "m.json: cannot write: No space left")
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]

@@ -175,9 +175,26 @@ def write_map(path: str | os.PathLike, m: MapFile) -> int:
     return write_atomic(path, data)
 
 
+def check_writable(path: str | os.PathLike) -> None:
+    """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
+    points: a folder, below a file, or in a folder that cannot be written. A command that works
+    for a long time before it writes checks first, so that the work is not lost at the end."""
+    path = Path(path)
+    if path.is_dir():
+        raise MapFileError(path, "cannot write: it is a folder (give a file name)")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:  # write_atomic creates the missing ones
+        folder = folder.parent
+    if not folder.is_dir():
+        raise MapFileError(path, f"cannot write: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):  # also false on a read-only file system, even for root
+        raise MapFileError(path, f"cannot write: folder {folder} is not writable")
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     """Write bytes so that the file is either the old one or the complete new one, never half."""
     path = Path(path)
+    check_writable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

@@ -63,12 +63,16 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..build import build_map
+    from ..mapfile import check_writable
     from ._maps import fuzzify_from_args
     from ..plot import save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)
+    for out in (args.out, args.plot):  # before the work, not after it
+        if out:
+            check_writable(out)
     t0 = time.perf_counter()
     scans, report = read_log(args)
     if args.consolidate:
