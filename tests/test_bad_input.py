@@ -181,3 +181,14 @@ def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys
     fails(capsys, ["build", log, "--out", out, "--quiet", "--tme", "0.5"], "m.json: cannot write: No space left")
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]
+
+
+@pytest.mark.parametrize("command", ["grid", "evaluate"])
+def test_resolution_too_fine_for_any_memory(tmp_path, capsys, command):
+    # before: a traceback, NumPy unable to allocate some petabytes
+    log = tmp_path / "a.log"
+    log.write_text("".join(flaser([1.0, 2.0, 1.5, 2.5, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    extra = ["--out", tmp_path / "g"] if command == "grid" else []
+    fails(capsys, [command, log, "--resolution", "1e-6", *extra], "a.log: a grid at resolution 1e-06 over these "
+                                                                   "scans would have about", "give a coarser --resolution")
+    assert not (tmp_path / "g").exists()

@@ -6,6 +6,7 @@ import json
 
 from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log
+from .grid import check_grid_size
 from ._types import number, positive
 
 _holdout = number(lambda k: k >= 2, "K must be a whole number, got {text!r}",
@@ -37,6 +38,7 @@ def run(args) -> int:
     if len(endpoints(holdout_split(scans, args.holdout)[1])) == 0:
         raise ScanValueError(args.log, None, "no held-out scan has a return within 5 m: nothing to score")
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
+    check_grid_size(args.log, scans, args.resolution, cfg.beams.max_usable)
     e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
     if args.json:
         print(json.dumps(e.as_dict(), indent=2))

@@ -24,6 +24,36 @@ def add_arguments(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no summary")
 
 
+def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_free: float = 0.0) -> None:
+    """ScanValueError before the work if an occupancy grid of ``scans`` at ``resolution`` would be
+    too large to hold: a too fine resolution otherwise ends in NumPy failing to allocate petabytes.
+
+    The limit is the one ``export --ros`` keeps to. The scan positions' box widened by the longest
+    beam holds every traced beam; only when that box is over the limit are the beams traced ends
+    looked at, so that a grid which fits is never refused."""
+    import math
+
+    import numpy as np
+
+    from ..errors import ScanValueError
+    from ..export import MAX_CELLS
+    from ..grid import beams_of
+
+    xy = np.array([s.pose[:2] for s in scans])
+    lo, hi = xy.min(axis=0) - max(max_usable, no_return_free), xy.max(axis=0) + max(max_usable, no_return_free)
+    w, h = ((hi - lo) / resolution + 3).tolist()
+    if w * h <= MAX_CELLS:
+        return
+    b = beams_of(scans, max_usable, no_return_free)
+    if len(b.length):
+        x, y = np.concatenate((b.ox, b.ex)), np.concatenate((b.oy, b.ey))
+        w, h = (x.max() - x.min()) / resolution + 3, (y.max() - y.min()) / resolution + 3
+    if w * h > MAX_CELLS:
+        raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have about "
+                                        f"{math.ceil(w)} × {math.ceil(h)} cells (limit {MAX_CELLS}): give a "
+                                        f"coarser --resolution")
+
+
 def run(args) -> int:
     from ..grid import occupancy_grid
     from ..rosmap import write_grid
@@ -31,6 +61,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     scans, report = read_log(args)
     t1 = time.perf_counter()
+    check_grid_size(args.log, scans, args.resolution, args.max_usable, args.no_return_free)
     grid = occupancy_grid(scans, resolution=args.resolution, max_usable=args.max_usable,
                           no_return_free=args.no_return_free)
     t2 = time.perf_counter()
