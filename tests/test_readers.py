@@ -112,6 +112,19 @@ def test_carmen_skip_bad_reports_how_many(tmp_path):
     assert "2 bad lines skipped" in report.summary()
 
 
+def test_skip_bad_with_every_scan_bad_says_so(tmp_path):
+    # before: "no FLASER scans in this file" and "no usable scans", though every scan was there and bad
+    p = write_log(tmp_path / "bad.log", [flaser([1.0, -1.0, 2.0]), flaser([float("nan"), 1.0, 2.0])])
+    with pytest.raises(ScanFormatError, match=r"bad.log: no usable FLASER scans: all 2 were skipped as bad "
+                                              r"\(first: .*bad.log, line 1, field r_2: range '-1.0' is negative\)"):
+        read_carmen(p, skip_bad=True)
+    c = tmp_path / "bad.csv"
+    c.write_text(HEADER + "0,0,0,0,0,-1,nan\n")
+    with pytest.raises(ScanFormatError, match=r"bad.csv: no usable scans \(all skipped as bad; first: .*line 2, "
+                                              r"field range: 'nan' is not finite\)"):
+        read_csv(c, skip_bad=True)
+
+
 def test_carmen_truncated_gzip_is_an_error_unless_skipping(tmp_path):
     data = gzip.compress("".join(GOOD * 5000).encode())
     p = tmp_path / "cut.log.gz"

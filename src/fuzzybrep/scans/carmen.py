@@ -87,6 +87,7 @@ def read_carmen(
     """
     path = Path(path)
     report = report if report is not None else ReadReport()
+    skipped, errors = report.skipped, len(report.errors)  # a report may come with earlier reads in it
     rows: list[tuple[np.ndarray, np.ndarray, float, int]] = []
     try:
         f = _open_text(path)
@@ -117,6 +118,10 @@ def read_carmen(
             raise err from None
         report.skip(err)
     if not rows:
+        if report.skipped > skipped:  # every FLASER line was skipped as bad: "none in this file" would mislead
+            first = f" (first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
+            raise ScanFormatError(path, None, f"no usable FLASER scans: all {report.skipped - skipped} were skipped "
+                                              f"as bad{first}")
         raise ScanFormatError(path, None, "no FLASER scans in this file")
     if max_range is None:
         max_range = max(float(r.max()) for r, *_ in rows)

@@ -57,6 +57,7 @@ def read_csv(
     """Scans from a CSV scan file; errors name the file, line and column."""
     path = Path(path)
     report = report if report is not None else ReadReport()
+    errors = len(report.errors)  # a report may come with earlier reads in it
     lines = _read_text(path).splitlines()
     header_at = None
     for i, line in enumerate(lines):
@@ -85,7 +86,8 @@ def read_csv(
     table = _parse_rows(path, lines, data_idx, cols, len(names), skip_bad, report)
     scans = _group(path, table, max_range if max_range is not None else np.inf, skip_bad, report)
     if not scans:
-        raise ScanFormatError(path, None, "no usable scans")
+        first = f" (all skipped as bad; first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
+        raise ScanFormatError(path, None, f"no usable scans{first}")
     report.scans = len(scans)
     report.max_range = max_range
     return scans
