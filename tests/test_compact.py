@@ -88,3 +88,38 @@ def test_export_writes_the_compact_map(tmp_path, capsys):
     crisp, mfs = read_compact(out)
     assert out.stat().st_size == compact_bytes(fz) and mfs == fz.table.to_dicts()
     assert all(np.abs(a.vertices - b.vertices).max() <= 0.0005 for a, b in zip(fz.crisp.rings, crisp.rings))
+
+
+def test_compact_file_cut_anywhere_says_truncated_and_where(tmp_path):
+    # before: "buffer is smaller than requested size", "index out of range" or a JSON parser's complaint
+    data = encode(sample_map(), [Triangular(0.2).to_dict() | {"index": 1}])
+    p = tmp_path / "cut.fbrc"
+    for n in range(1, len(data)):
+        p.write_bytes(data[:n])
+        with pytest.raises(MapFileError, match=r"cut.fbrc: not a valid compact map: truncated"):
+            read_compact(p)
+    p.write_bytes(data[:30])
+    with pytest.raises(MapFileError, match="truncated: the data ends at byte 30, in membership function 1"):
+        read_compact(p)
+
+
+@pytest.mark.parametrize("damage, words", [
+    (lambda d: d[:7] + np.float64(-0.001).tobytes() + d[15:], "quantum -0.001 is not a positive number"),  # before: a mirrored map
+    (lambda d: d[:7] + np.float64(np.nan).tobytes() + d[15:], "quantum nan"),  # before: NaN vertices
+    (lambda d: d[:15] + bytes([7]) + d[16:], "FM mode 7 is neither"),  # before: read as FM from the kinds
+])
+def test_compact_header_with_impossible_values(tmp_path, damage, words):
+    data = encode(sample_map(), [])
+    assert data[5] == 1 and data[6:7] == b"m"  # unit "m": the quantum at bytes 7-14, the FM mode at 15
+    p = tmp_path / "bad.fbrc"
+    p.write_bytes(damage(data))
+    with pytest.raises(MapFileError, match="bad.fbrc: not a valid compact map: " + words):
+        read_compact(p)
+
+
+def test_compact_map_with_a_self_intersecting_ring_names_file_and_vertex(tmp_path):
+    bowtie = BRepMap((Region(Ring([(0, 0), (4, 4), (0, 4), (4, 0)])),))
+    p = tmp_path / "bow.fbrc"
+    p.write_bytes(encode(bowtie, []))
+    with pytest.raises(MapFileError, match="bow.fbrc: principal, vertex .*self-intersecting"):
+        read_compact(p)

@@ -164,6 +164,22 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     assert FuzzyBRepMap.load(out).table[1].tme_in == 0.3
 
 
+def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):
+    # a built map gives its frontier vertices FM 2; before, refuzzifying it with one function
+    # failed with "principal, vertex 2: FM index 2 has no membership function in the table"
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.membership import Triangular
+
+    ring = Ring([(0, 0), (5, 0), (5, 5), (0, 5)], kinds=[0, 1, 0, 0])
+    built = tmp_path / "built.json"
+    fuzzify(BRepMap((Region(ring),)), Triangular(0.2), frontier_mf=Triangular(0.4)).save(built)
+    out = tmp_path / "again.json"
+    assert run("fuzzify", built, "--tme", 0.3, "--out", out) == 0, capsys.readouterr().err
+    again = FuzzyBRepMap.load(out)
+    assert again.table.indices == [1] and again.crisp.principal.kinds.tolist() == [0, 1, 0, 0]
+
+
 # -- GeoJSON input -----------------------------------------------------------------------------
 
 

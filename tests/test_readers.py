@@ -83,6 +83,26 @@ def test_carmen_bad_lines_name_file_line_and_field(tmp_path, line, field, cls, w
     assert "bad.log" in str(err) and "line 2" in str(err)
 
 
+@pytest.mark.parametrize(
+    "line, words",
+    [
+        # one range more than n says: before, that range was read as x and the pose shifted by one
+        ("FLASER 2 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10 host 10\n", "beam count 2 does not match the line's 14 fields"),
+        # one range fewer: before, x was read as a range and the heading as odom_x
+        ("FLASER 4 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10 host 10\n", "beam count 4 does not match the line's 14 fields"),
+        # a log without host and logger timestamp, n two short: the fields count as a long line
+        ("FLASER 1 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10\n", "there is the number '0.5'"),
+    ],
+)
+def test_carmen_beam_count_that_disagrees_with_the_ranges(tmp_path, line, words):
+    p = write_log(tmp_path / "bad.log", [GOOD[3], line, GOOD[4]])
+    with pytest.raises(ScanFormatError, match="bad.log, line 2, field n: .*" + words):
+        read_carmen(p)
+    # logs without host and logger timestamp still read
+    short = write_log(tmp_path / "short.log", ["FLASER 3 1.0 2.0 3.0 1 2 0.5 1 2 0.5 10\n"])
+    assert read_carmen(short)[0].ranges.tolist() == [1.0, 2.0, 3.0]
+
+
 def test_carmen_skip_bad_reports_how_many(tmp_path):
     p = write_log(tmp_path / "bad.log", [GOOD[3], flaser([1.0, -1.0, 2.0]), "FLASER 9 1 2\n", GOOD[4]])
     report = ReadReport()
@@ -90,6 +110,19 @@ def test_carmen_skip_bad_reports_how_many(tmp_path):
     assert len(scans) == 2 and report.skipped == 2 and report.scans == 2
     assert [e.line for e in report.errors] == [2, 3]
     assert "2 bad lines skipped" in report.summary()
+
+
+def test_skip_bad_with_every_scan_bad_says_so(tmp_path):
+    # before: "no FLASER scans in this file" and "no usable scans", though every scan was there and bad
+    p = write_log(tmp_path / "bad.log", [flaser([1.0, -1.0, 2.0]), flaser([float("nan"), 1.0, 2.0])])
+    with pytest.raises(ScanFormatError, match=r"bad.log: no usable FLASER scans: all 2 were skipped as bad "
+                                              r"\(first: .*bad.log, line 1, field r_2: range '-1.0' is negative\)"):
+        read_carmen(p, skip_bad=True)
+    c = tmp_path / "bad.csv"
+    c.write_text(HEADER + "0,0,0,0,0,-1,nan\n")
+    with pytest.raises(ScanFormatError, match=r"bad.csv: no usable scans \(all skipped as bad; first: .*line 2, "
+                                              r"field range: 'nan' is not finite\)"):
+        read_csv(c, skip_bad=True)
 
 
 def test_carmen_truncated_gzip_is_an_error_unless_skipping(tmp_path):
@@ -139,6 +172,10 @@ HEADER = "scan,time,x,y,theta,bearing,range\n"
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,nan\n", 4, "range", "not finite"),
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,-2\n", 4, "range", "negative"),
         ("0,0,0,0,0,-1,1\n0,0,0,0\n", 4, None, "truncated"),
+        # an extra field in a middle row: read silently before, its columns taken as they fell
+        ("0,0,0,0,0,-1,1\n0,0,0,0,0,0,1,5\n0,0,0,0,0,1,1\n", 4, None, "8 columns, but the header has 7"),
+        # decimal commas in every row: before, a misleading "bearings must increase"
+        ("0,0,0,0,0,-1,5,1,5\n0,0,0,0,0,0,5,1,5\n", 3, None, "9 columns, but the header has 7"),
         ("0,0,0,0,0,-1,1\n0,0,0,0,0,zero,1\n", 4, "bearing", "not a number"),
         ("0,0,0,0,0,-1,1\n0,0,0.5,0,0,0,1\n", 4, "x", "changes within scan"),
         ("0,0,0,0,0,0,1\n0,0,0,0,0,-1,1\n", 4, "bearing", "must increase"),

@@ -388,3 +388,13 @@ def test_damaged_ros2_bag_and_folder_that_is_not_a_bag(tmp_path, scans):
     with pytest.raises(ScanFormatError, match="r2"):
         read_rosbag(path)
     shutil.rmtree(path)
+
+
+def test_bag_with_broken_metadata_is_one_line(tmp_path, scans, capsys):
+    path = bag_of(tmp_path / "r2", scans[:2], ros1=False)
+    (path / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
+    with pytest.raises(ScanFormatError, match="r2: cannot read as a ROS bag: .*metadata.yaml") as e:
+        read_rosbag(path)
+    assert "\n" not in str(e.value)
+    assert cli.main(["build", str(path), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

@@ -31,7 +31,7 @@ import numpy as np
 
 from .brep import BRepMap, Region, Ring, frontier_fm
 from .errors import MapFileError
-from .mapfile import write_atomic
+from .mapfile import check_map, write_atomic
 
 MAGIC = b"FBRC"
 VERSION = 1
@@ -119,45 +119,80 @@ def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | No
     return b"".join(parts)
 
 
+class _Reader:
+    """``data`` read front to back; running short says what was being read and where (a file cut
+    short would otherwise fail on a slice that silently comes back shorter, or an odd NumPy error)."""
+
+    def __init__(self, data: bytes):
+        self.data, self.o = data, 0
+
+    def short(self, what: str) -> ValueError:
+        return ValueError(f"truncated: the data ends at byte {len(self.data)}, in {what}")
+
+    def bytes(self, n: int, what: str) -> bytes:
+        if self.o + n > len(self.data):
+            raise self.short(what)
+        self.o += n
+        return self.data[self.o - n : self.o]
+
+    def varints(self, count: int, what: str) -> np.ndarray:
+        try:
+            v, self.o = decode_varints(self.data, count, self.o)
+        except ValueError:
+            raise self.short(what) from None
+        return v
+
+    def counts(self, count: int, what: str) -> np.ndarray:
+        v = self.varints(count, what)
+        if (v < 0).any():
+            raise ValueError(f"{what}: negative count {int(v.min())}")
+        return v
+
+
 def decode(data: bytes) -> tuple[BRepMap, list[dict]]:
     """(crisp map, membership-function dicts) from ``encode``'s bytes."""
     if data[:4] != MAGIC:
-        raise ValueError("not a compact fuzzybrep map (bad magic)")
-    if data[4] != VERSION:
-        raise ValueError(f"compact map version {data[4]} is not supported (this is version {VERSION})")
-    n_unit = data[5]
-    unit = data[6 : 6 + n_unit].decode()
-    o = 6 + n_unit
-    q = float(np.frombuffer(data, np.float64, 1, o)[0])
-    fm_mode = data[o + 8]
-    o += 9
-    (n_mf,), o = decode_varints(data, 1, o)
+        raise ValueError("empty" if not data else "truncated in the magic" if MAGIC.startswith(data)
+                         else "not a compact fuzzybrep map (bad magic)")
+    f = _Reader(data)
+    f.bytes(4, "the magic")
+    version, n_unit = f.bytes(2, "the header")
+    if version != VERSION:
+        raise ValueError(f"compact map version {version} is not supported (this is version {VERSION})")
+    unit = f.bytes(n_unit, "the unit").decode()
+    q = float(np.frombuffer(f.bytes(8, "the quantum"), np.float64)[0])
+    if not (np.isfinite(q) and q > 0):  # a zero, negative or NaN step would collapse or mirror the map
+        raise ValueError(f"quantum {q!r} is not a positive number")
+    (fm_mode,) = f.bytes(1, "the FM mode")
+    if fm_mode not in (FM_FROM_KINDS, FM_EXPLICIT):
+        raise ValueError(f"FM mode {fm_mode} is neither {FM_FROM_KINDS} (from the edge kinds) nor {FM_EXPLICIT} (explicit)")
+    (n_mf,) = f.counts(1, "the membership-function count")
     mfs = []
-    for _ in range(int(n_mf)):
-        (n,), o = decode_varints(data, 1, o)
-        mfs.append(json.loads(data[o : o + int(n)]))
-        o += int(n)
-    (n_regions,), o = decode_varints(data, 1, o)
-    holes, o = decode_varints(data, int(n_regions), o)
+    for k in range(int(n_mf)):
+        (n,) = f.counts(1, f"membership function {k + 1}")
+        mf = json.loads(f.bytes(int(n), f"membership function {k + 1}"))
+        if not isinstance(mf, dict):
+            raise ValueError(f"membership function {k + 1} is not a JSON object")
+        mfs.append(mf)
+    (n_regions,) = f.counts(1, "the region count")
+    holes = f.counts(int(n_regions), "the hole counts")
     prev = np.zeros(2, np.int64)
     rings = []
-    for _ in range(int(n_regions + holes.sum())):
-        (n,), o = decode_varints(data, 1, o)
+    for k in range(int(n_regions + holes.sum())):
+        what = f"ring {k + 1}"
+        (n,) = f.counts(1, what)
         n = int(n)
-        d, o = decode_varints(data, 2 * n, o)
+        d = f.varints(2 * n, what)
         v = np.cumsum(d.reshape(n, 2), axis=0) + prev
-        prev = v[0]
-        nk = (n + 7) // 8
-        kinds = np.unpackbits(np.frombuffer(data, np.uint8, nk, o))[:n]
-        o += nk
+        prev = v[0] if n else prev
+        kinds = np.unpackbits(np.frombuffer(f.bytes((n + 7) // 8, what), np.uint8))[:n]
         if fm_mode == FM_EXPLICIT:
-            fm = np.frombuffer(data, np.uint8, n, o).astype(np.int32)
-            o += n
+            fm = np.frombuffer(f.bytes(n, what), np.uint8).astype(np.int32)
         else:
             fm = fm_from_kinds(kinds) if len(mfs) == 2 else np.ones(n, np.int32)
         rings.append(Ring(v * q, kinds, fm))
-    if o != len(data):
-        raise ValueError(f"{len(data) - o} unexpected bytes after the last ring")
+    if f.o != len(data):
+        raise ValueError(f"{len(data) - f.o} unexpected bytes after the last ring")
     it = iter(rings)
     regions = tuple(Region(next(it), tuple(next(it) for _ in range(int(h)))) for h in holes)
     return BRepMap(regions, unit), mfs
@@ -173,6 +208,8 @@ def read_compact(path: str | os.PathLike) -> tuple[BRepMap, list[dict]]:
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
     try:
-        return decode(data)
+        crisp, mfs = decode(data)
     except (ValueError, IndexError, json.JSONDecodeError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"not a valid compact map: {e}") from None
+    check_map(crisp, path)
+    return crisp, mfs

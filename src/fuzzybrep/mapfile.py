@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from .brep import BRepMap, Region, Ring
-from .errors import MapFileError
+from .errors import GeometryError, MapFileError
 
 FORMAT = "fuzzybrep-map"
 VERSION = 1
@@ -61,14 +61,36 @@ def _ring_to_json(r: Ring) -> dict:
     }
 
 
+def _whole(d: dict, key: str, what: str, ok, rule: str) -> np.ndarray | None:
+    """A ring's edge-kind or FM column as read: whole numbers that pass ``ok``, or None if absent.
+
+    Checked here because Ring casts them to small integers, which would turn 1.7 into 1 and 7
+    into an edge kind that is neither obstacle nor frontier without a word."""
+    if d.get(key) is None:
+        return None
+    a = np.asarray(d[key], dtype=np.float64)
+    if a.ndim != 1:
+        raise ValueError(f"{key} must be a list of numbers")
+    with np.errstate(invalid="ignore"):
+        bad = ~((a == np.round(a)) & ok(a))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"vertex {i + 1}: {what} {d[key][i]!r} {rule}")
+    return a
+
+
 def _ring_from_json(d: dict, where: str) -> Ring:
     try:
+        if not isinstance(d, dict):
+            raise ValueError(f"expected an object with x, y, kind and fm lists, got {type(d).__name__}")
         x, y = np.asarray(d["x"], dtype=np.float64), np.asarray(d["y"], dtype=np.float64)
         if x.shape != y.shape or x.ndim != 1:
             raise ValueError(f"x has {x.size} values, y has {y.size}")
-        return Ring(np.column_stack((x, y)), d.get("kind"), d.get("fm"))
+        kinds = _whole(d, "kind", "edge kind", lambda k: (k == 0) | (k == 1), "is neither 0 (obstacle) nor 1 (frontier)")
+        fm = _whole(d, "fm", "FM index", lambda f: (f >= 1) & (f < 2**31), "is not a whole number from 1 up")
+        return Ring(np.column_stack((x, y)), kinds, fm)
     except (KeyError, TypeError, ValueError) as e:
-        raise ValueError(f"{where}: {e}") from None
+        raise ValueError(f"{where}{', ' if str(e).startswith('vertex ') else ': '}{e}") from None
 
 
 def to_json(m: MapFile) -> dict:
@@ -86,25 +108,64 @@ def to_json(m: MapFile) -> dict:
     }
 
 
+def _typed(d: dict, key: str, kind: type, default):
+    """d[key] if it is a ``kind`` (or absent/null: the default), else a ValueError naming the key."""
+    v = d.get(key)
+    if v is None:
+        return default
+    if not isinstance(v, kind):
+        raise ValueError(f"{key} must be {'a list' if kind is list else 'an object' if kind is dict else 'a string'}, "
+                         f"got {type(v).__name__}")
+    return v
+
+
 def from_json(d: dict, path: str | os.PathLike = "<map>") -> MapFile:
+    """The map a file's JSON holds; MapFileError naming the file (and the ring and vertex) if it is
+    not one: wrong shape, impossible values, or a degenerate or self-intersecting ring."""
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise MapFileError(path, f"not a fuzzybrep map (format field is {d.get('format') if isinstance(d, dict) else None!r})")
     if d.get("version") != VERSION:
         raise MapFileError(path, f"map file version {d.get('version')!r} is not supported (this is version {VERSION})")
     try:
         regions = []
-        for k, reg in enumerate(d["regions"]):
-            shell = _ring_from_json(reg["shell"], f"region {k} shell")
-            holes = tuple(_ring_from_json(h, f"region {k} hole {j + 1}") for j, h in enumerate(reg.get("holes", [])))
+        for k, reg in enumerate(_typed(d, "regions", list, [])):
+            if not isinstance(reg, dict):
+                raise ValueError(f"region {k} must be an object with a shell and holes, got {type(reg).__name__}")
+            shell = _ring_from_json(reg.get("shell"), f"region {k} shell")
+            holes = tuple(_ring_from_json(h, f"region {k} hole {j + 1}") for j, h in enumerate(_typed(reg, "holes", list, [])))
             regions.append(Region(shell, holes))
         if not regions:
             raise ValueError("no regions")
-        crisp = BRepMap(tuple(regions), d.get("unit", "m"))
-        scans = d.get("scans")
-        poses = None if not scans else np.asarray(scans["poses"], dtype=np.float64).reshape(-1, 4)
-        return MapFile(crisp, list(d.get("membership_functions") or []), poses, dict(d.get("metadata") or {}))
+        crisp = BRepMap(tuple(regions), _typed(d, "unit", str, "m"))
+        scans = _typed(d, "scans", dict, None)
+        poses = None if not scans else _poses(scans.get("poses"))
+        mfs = list(_typed(d, "membership_functions", list, []))
+        meta = dict(_typed(d, "metadata", dict, {}))
     except (KeyError, TypeError, ValueError) as e:
         raise MapFileError(path, f"malformed map: {e}") from None
+    check_map(crisp, path)
+    return MapFile(crisp, mfs, poses, meta)
+
+
+def _poses(rows) -> np.ndarray:
+    p = np.asarray(rows, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 4:
+        raise ValueError(f"scans.poses must be rows of x, y, heading, time; got shape {p.shape}")
+    bad = ~np.isfinite(p).all(axis=1)
+    if bad.any():
+        raise ValueError(f"scans.poses row {int(np.argmax(bad)) + 1} is not finite: {p[int(np.argmax(bad))].tolist()}")
+    return p
+
+
+def check_map(crisp: BRepMap, path: str | os.PathLike) -> None:
+    """MapFileError naming the file, ring and vertex if a map read from ``path`` has a degenerate
+    or self-intersecting ring (the sweep and every α-cut need simple rings)."""
+    from .fuzzy import validate_map  # fuzzy imports this module
+
+    try:
+        validate_map(crisp)
+    except GeometryError as e:
+        raise MapFileError(path, str(e)) from None
 
 
 def write_map(path: str | os.PathLike, m: MapFile) -> int:
@@ -114,9 +175,26 @@ def write_map(path: str | os.PathLike, m: MapFile) -> int:
     return write_atomic(path, data)
 
 
+def check_writable(path: str | os.PathLike) -> None:
+    """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
+    points: a folder, below a file, or in a folder that cannot be written. A command that works
+    for a long time before it writes checks first, so that the work is not lost at the end."""
+    path = Path(path)
+    if path.is_dir():
+        raise MapFileError(path, "cannot write: it is a folder (give a file name)")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:  # write_atomic creates the missing ones
+        folder = folder.parent
+    if not folder.is_dir():
+        raise MapFileError(path, f"cannot write: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):  # also false on a read-only file system, even for root
+        raise MapFileError(path, f"cannot write: folder {folder} is not writable")
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     """Write bytes so that the file is either the old one or the complete new one, never half."""
     path = Path(path)
+    check_writable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

@@ -6,7 +6,7 @@ the input is a bag, so ``read_scans`` keeps one signature per format.
 
 from __future__ import annotations
 
-from ..errors import ScanFormatError
+from ..errors import ScanFormatError, ScanValueError
 from ..scans.read import ReadReport, detect_format, read_scans
 from ._types import positive
 
@@ -28,7 +28,17 @@ def read_log(args) -> tuple[list, ReadReport]:
     kw = {"skip_bad": args.skip_bad, **bag_kwargs(args, args.log, args.format)}
     if args.max_range is not None:
         kw["max_range"] = args.max_range
-    return read_scans(args.log, fmt=args.format, report=report, **kw), report
+    scans = read_scans(args.log, fmt=args.format, report=report, **kw)
+    claims_free = getattr(args, "no_return_free", 0.0) > 0
+    if not claims_free and not any(s.returns.any() for s in scans):
+        # every beam is "no return": nothing marks an obstacle or free space, and the builders
+        # would fail deep inside (or map nothing) instead of saying so
+        mr = max(s.max_range for s in scans)
+        hint = ", or --no-return-free to claim free space along them" if hasattr(args, "no_return_free") else ""
+        raise ScanValueError(args.log, None, f"no beam has a return (every range of the {len(scans)} scan(s) is 0 or "
+                                             f"at least max_range {mr:g}): nothing to map; give --max-range above "
+                                             f"{mr:g} if those ranges are real{hint}")
+    return scans, report
 
 _DESTS = ("scan_topic", "odom_topic", "fixed_frame")
 

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ..brep import BRepMap
+from ..brep import BRepMap, Ring
 from ..errors import MembershipFunctionError
 from ..fuzzy import FuzzyBRepMap, fuzzify
 from ..geojson import read_geojson
@@ -71,7 +71,10 @@ def read_crisp(path: str | Path, unit: str) -> BRepMap:
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
-            return from_json(obj, path).crisp
+            crisp = from_json(obj, path).crisp
+            # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
+            # frontier index 2 would have no function in a new one-function table
+            return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
     return read_geojson(path, unit)
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from typing import Callable
 
 
@@ -27,4 +28,14 @@ def number(ok: Callable[[float], bool], not_a_number: str, breaks_rule: str, cas
 
 
 positive = number(lambda v: 0 < v < math.inf, "{text!r} is not a number", "{text} must be a positive number")
+non_negative = number(lambda v: 0 <= v < math.inf, "{text!r} is not a number", "{text} must be a finite number ≥ 0")
+finite = number(math.isfinite, "{text!r} is not a number", "{text} must be a finite number")
+seed = number(lambda s: s >= 0, "seed must be a whole number, got {text!r}", "seed must be ≥ 0, got {text}", cast=int)
 alpha = number(lambda a: 0.0 <= a <= 1.0, "α must be a number, got {text!r}", "α must lie in [0, 1], got {text}")
+
+
+def file_name(s: str) -> str:
+    """An argparse type: a plain file name, so that an output lands in the folder given for it."""
+    if not re.fullmatch(r"[A-Za-z0-9_.-]+", s) or s in (".", ".."):
+        raise argparse.ArgumentTypeError(f"name must be a plain file name (letters, digits, _ . -), got {s!r}")
+    return s

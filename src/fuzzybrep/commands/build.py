@@ -10,9 +10,14 @@ import numpy as np
 
 from ._logopts import add_log_arguments, read_log
 from ._maps import DEFAULT_TME_M, add_mf_arguments
+from ._types import non_negative, number, positive
 
 NAME = "build"
 HELP = "build a map from a laser log (CARMEN, CSV scans or a ROS bag)"
+
+
+# lines.LineConfig's rule, checked here so that a bad value is a usage error and not a traceback
+_theta_step = number(lambda d: 0 < d <= 45, "{text!r} is not a number", "{text} must be in (0, 45] degrees")
 
 
 def add_arguments(p) -> None:
@@ -22,15 +27,15 @@ def add_arguments(p) -> None:
     p.add_argument("--consolidate", action="store_true",
                    help="merge pairs of 180° scans taken at one spot facing opposite ways into 360° scans (thesis 5.2)")
     p.add_argument("--lines", choices=["hough", "iepf"], default="hough", help="line extractor (default: hough, thesis 3.2.1.1)")
-    p.add_argument("--theta-step", type=float, default=1.0, help="Hough θ step in degrees (default 1)")
-    p.add_argument("--max-usable", type=float, default=8.0, help="longest range whose free space is trusted (default 8)")
-    p.add_argument("--no-return-free", type=float, default=0.0,
+    p.add_argument("--theta-step", type=_theta_step, default=1.0, help="Hough θ step in degrees (default 1)")
+    p.add_argument("--max-usable", type=positive, default=8.0, help="longest range whose free space is trusted (default 8)")
+    p.add_argument("--no-return-free", type=non_negative, default=0.0,
                    help="free range claimed along beams with no return (default 0: unknown)")
     p.add_argument("--no-evidence", action="store_true",
                    help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
-    p.add_argument("--min-hole-area", type=float, help="prune holes smaller than this (map unit², default from the config)")
-    p.add_argument("--simplify", type=float, help="vertex reduction tolerance (map unit, default from the config)")
+    p.add_argument("--min-hole-area", type=non_negative, help="prune holes smaller than this (map unit², default from the config)")
+    p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default from the config)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M)
 
@@ -58,12 +63,16 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..build import build_map
+    from ..mapfile import check_writable
     from ._maps import fuzzify_from_args
     from ..plot import save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)
+    for out in (args.out, args.plot):  # before the work, not after it
+        if out:
+            check_writable(out)
     t0 = time.perf_counter()
     scans, report = read_log(args)
     if args.consolidate:

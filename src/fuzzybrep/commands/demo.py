@@ -7,6 +7,7 @@ import json
 import time
 from pathlib import Path
 
+from ._types import seed
 from ._world import add_world_arguments
 
 NAME = "demo"
@@ -16,7 +17,7 @@ HELP = "reproduce the thesis's experiment on a built-in (or your) floor plan and
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", metavar="DIR", default="fuzzybrep-demo",
                    help="folder for floorplan.geojson, map.json, report.json and the figures (default %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
     add_world_arguments(p, "your own floor plan (docs/demo.md)")
     g = p.add_argument_group("poses the map uses")
     g.add_argument("--poses", choices=["relocalised", "odometry", "true"], default="relocalised",
@@ -29,11 +30,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..demo import report, run_demo, summary
-    from ..mapfile import write_atomic
+    from ..mapfile import check_writable, write_atomic
     from ._world import world_and_route
 
     t0 = time.perf_counter()
     out = Path(args.out)
+    check_writable(out / "map.json")  # before the run, not after it
     world, route, source = world_and_route(args)
     result = run_demo(world, route, seed=args.seed, pose_model="odometry" if args.raw_odometry else args.poses,
                       world_source=source)

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import json
 
+from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log
+from .grid import check_grid_size
+from ._types import number, positive
+
+_holdout = number(lambda k: k >= 2, "K must be a whole number, got {text!r}",
+                  "K must be at least 2 (every K-th scan is held out, the rest build the map), got {text}", cast=int)
 
 NAME = "evaluate"
 HELP = "build from all scans but every K-th and score the held-out ones against the map"
@@ -12,9 +18,9 @@ HELP = "build from all scans but every K-th and score the held-out ones against 
 
 def add_arguments(p) -> None:
     add_log_arguments(p)
-    p.add_argument("--holdout", type=int, default=2, metavar="K", help="hold out every K-th scan (default 2)")
+    p.add_argument("--holdout", type=_holdout, default=2, metavar="K", help="hold out every K-th scan (default 2)")
     p.add_argument("--tme", type=float, default=None, help="TME in the map's unit (default 0.19913)")
-    p.add_argument("--resolution", type=float, default=0.05, help="occupancy-grid cell for the comparison (default 0.05)")
+    p.add_argument("--resolution", type=positive, default=0.05, help="occupancy-grid cell for the comparison (default 0.05)")
     p.add_argument("--json", action="store_true", help="print the scores as JSON")
 
 
@@ -22,9 +28,17 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..build import BuildConfig
-    from ..evaluate import evaluate_log
+    from ..evaluate import endpoints, evaluate_log, holdout_split
     scans, _ = read_log(args)
+    # with nothing to score every rate is 0/0: say so rather than print "nan %" (or NaN in --json)
+    if len(scans) < args.holdout:
+        raise ScanValueError(args.log, None, f"{len(scans)} scan(s): holding out every {_ordinal(args.holdout)} "
+                                             f"leaves none to score" + (f"; give --holdout 2 to {len(scans)}"
+                                                                        if len(scans) >= 2 else ""))
+    if len(endpoints(holdout_split(scans, args.holdout)[1])) == 0:
+        raise ScanValueError(args.log, None, "no held-out scan has a return within 5 m: nothing to score")
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
+    check_grid_size(args.log, scans, args.resolution, cfg.beams.max_usable)
     e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
     if args.json:
         print(json.dumps(e.as_dict(), indent=2))
@@ -45,4 +59,6 @@ def run(args) -> int:
 
 
 def _ordinal(k: int) -> str:
-    return "second" if k == 2 else "third" if k == 3 else f"{k}th"
+    if k in (2, 3):
+        return "second" if k == 2 else "third"
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"

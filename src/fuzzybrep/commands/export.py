@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import sys
 import time
 from pathlib import Path
 
 from ._maps import add_map_argument, load_map
-from ._types import alpha, number
+from ._types import alpha, file_name, number
 
 NAME = "export"
 HELP = "export a map: α-cuts as GeoJSON, a ROS map_server pair (PGM + YAML), an SVG picture"
@@ -18,12 +17,6 @@ HELP = "export a map: α-cuts as GeoJSON, a ROS map_server pair (PGM + YAML), an
 
 _resolution = number(lambda r: 0 < r < math.inf, "resolution must be a number, got {text!r}",
                      "resolution must be positive, got {text}")
-
-
-def _name(s: str) -> str:
-    if not re.fullmatch(r"[A-Za-z0-9_.-]+", s) or s in (".", ".."):
-        raise argparse.ArgumentTypeError(f"name must be a plain file name (letters, digits, _ . -), got {s!r}")
-    return s
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -46,7 +39,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(Extension principle)")
     p.add_argument("--resolution", type=_resolution, default=0.05,
                    help="--ros: cell side in metres (default 0.05; in the map's unit if it is not m, cm or mm)")
-    p.add_argument("--name", type=_name, default=None, help="--ros: base name of the files (default: the map file's name)")
+    p.add_argument("--name", type=file_name, default=None, help="--ros: base name of the files (default: the map file's name)")
     p.add_argument("--ros-method", choices=("exact", "sweep"), default="exact",
                    help="--ros: μ of the grey levels: exact (distance to the crisp boundary, default) or sweep")
 

@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from ._logopts import add_log_arguments, read_log
-from ._types import positive
+from ._types import file_name, non_negative, positive
 
 NAME = "grid"
 HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map (PGM + YAML)"
@@ -15,13 +15,43 @@ HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map
 def add_arguments(p) -> None:
     add_log_arguments(p)
     p.add_argument("--out", required=True, help="folder to write NAME.pgm and NAME.yaml into")
-    p.add_argument("--name", default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
+    p.add_argument("--name", type=file_name, default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
     p.add_argument("--resolution", type=positive, default=0.05, help="cell side in metres (default 0.05)")
     p.add_argument("--max-usable", type=positive, default=8.0,
                    help="longest range whose free space and hit are trusted; farther returns mark free space up to it (default 8)")
-    p.add_argument("--no-return-free", type=float, default=0.0,
+    p.add_argument("--no-return-free", type=non_negative, default=0.0,
                    help="free range claimed along beams with no return (default 0: they mark nothing)")
     p.add_argument("--quiet", action="store_true", help="no summary")
+
+
+def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_free: float = 0.0) -> None:
+    """ScanValueError before the work if an occupancy grid of ``scans`` at ``resolution`` would be
+    too large to hold: a too fine resolution otherwise ends in NumPy failing to allocate petabytes.
+
+    The limit is the one ``export --ros`` keeps to. The scan positions' box widened by the longest
+    beam holds every traced beam; only when that box is over the limit are the beams traced ends
+    looked at, so that a grid which fits is never refused."""
+    import math
+
+    import numpy as np
+
+    from ..errors import ScanValueError
+    from ..export import MAX_CELLS
+    from ..grid import beams_of
+
+    xy = np.array([s.pose[:2] for s in scans])
+    lo, hi = xy.min(axis=0) - max(max_usable, no_return_free), xy.max(axis=0) + max(max_usable, no_return_free)
+    w, h = ((hi - lo) / resolution + 3).tolist()
+    if w * h <= MAX_CELLS:
+        return
+    b = beams_of(scans, max_usable, no_return_free)
+    if len(b.length):
+        x, y = np.concatenate((b.ox, b.ex)), np.concatenate((b.oy, b.ey))
+        w, h = (x.max() - x.min()) / resolution + 3, (y.max() - y.min()) / resolution + 3
+    if w * h > MAX_CELLS:
+        raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have about "
+                                        f"{math.ceil(w)} × {math.ceil(h)} cells (limit {MAX_CELLS}): give a "
+                                        f"coarser --resolution")
 
 
 def run(args) -> int:
@@ -31,6 +61,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     scans, report = read_log(args)
     t1 = time.perf_counter()
+    check_grid_size(args.log, scans, args.resolution, args.max_usable, args.no_return_free)
     grid = occupancy_grid(scans, resolution=args.resolution, max_usable=args.max_usable,
                           no_return_free=args.no_return_free)
     t2 = time.perf_counter()

@@ -9,7 +9,7 @@ import sys
 
 from ..plan import MODES, planner
 from ._maps import add_map_argument, load_map
-from ._types import alpha, number
+from ._types import alpha, finite, number
 
 NAME = "plan"
 HELP = "plan a path that stays in the space free at confidence α, kept a robot's radius from its edge"
@@ -21,8 +21,8 @@ _radius = number(lambda r: 0 <= r < math.inf, "radius must be a number, got {tex
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
-    p.add_argument("--start", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where the robot is")
-    p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"), help="where it should go")
+    p.add_argument("--start", type=finite, nargs=2, required=True, metavar=("X", "Y"), help="where the robot is")
+    p.add_argument("--goal", type=finite, nargs=2, required=True, metavar=("X", "Y"), help="where it should go")
     p.add_argument("--alpha", type=alpha, default=0.0, metavar="A",
                    help="plan in the inner α-cut, the space free at confidence α (default 0: the support's "
                         "inner bound, the safest)")

@@ -10,6 +10,7 @@ from dataclasses import replace
 from ..errors import FuzzyBrepError
 from ..odometry import write_runs
 from ..simulate import DiffDrive, Laser, save_run, simulate_run, umbmark_runs
+from ._types import seed
 from ._world import add_world_arguments, world_and_route
 
 NAME = "simulate"
@@ -29,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="probability a beam passes through glass (default %(default)g)")
     g.add_argument("--glass-reflect", type=float, default=Laser.glass_reflect,
                    help="probability a beam reflects off glass (default %(default)g); 0 and 0: glass is a wall")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default %(default)d)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default %(default)d)")
     g = p.add_argument_group("outputs")
     g.add_argument("--out", metavar="SCANS.npz", help="write the scans, odometry and true poses (.npz)")
     g.add_argument("--world-out", metavar="FILE.geojson", help="write the world and route as GeoJSON")

@@ -44,6 +44,15 @@ def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
     need = 2 + n + 7
     if len(parts) < need:
         raise BadLine(None, f"truncated: {len(parts)} fields, a FLASER line with {n} beams needs at least {need}")
+    # the ranges are not delimited: only the field count (7 numbers after them, then host and
+    # logger timestamp, which old logs lack) shows a beam count that disagrees with the ranges,
+    # which would otherwise shift ranges into the pose or the pose into the ranges
+    if len(parts) not in (need, need + 2):
+        raise BadLine("n", f"beam count {n} does not match the line's {len(parts)} fields (a FLASER line with {n} "
+                           f"beams has {need + 2}, or {need} without host and logger timestamp)")
+    if len(parts) == need + 2 and is_float(parts[need]):
+        raise BadLine("n", f"beam count {n} does not match the line: where the host should follow {n} ranges, the "
+                           f"pose and the timestamp, there is the number {parts[need]!r}")
     try:
         r = np.array(parts[2 : 2 + n], dtype=np.float64)
     except ValueError:
@@ -78,6 +87,7 @@ def read_carmen(
     """
     path = Path(path)
     report = report if report is not None else ReadReport()
+    skipped, errors = report.skipped, len(report.errors)  # a report may come with earlier reads in it
     rows: list[tuple[np.ndarray, np.ndarray, float, int]] = []
     try:
         f = _open_text(path)
@@ -108,6 +118,10 @@ def read_carmen(
             raise err from None
         report.skip(err)
     if not rows:
+        if report.skipped > skipped:  # every FLASER line was skipped as bad: "none in this file" would mislead
+            first = f" (first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
+            raise ScanFormatError(path, None, f"no usable FLASER scans: all {report.skipped - skipped} were skipped "
+                                              f"as bad{first}")
         raise ScanFormatError(path, None, "no FLASER scans in this file")
     if max_range is None:
         max_range = max(float(r.max()) for r, *_ in rows)

@@ -57,6 +57,7 @@ def read_csv(
     """Scans from a CSV scan file; errors name the file, line and column."""
     path = Path(path)
     report = report if report is not None else ReadReport()
+    errors = len(report.errors)  # a report may come with earlier reads in it
     lines = _read_text(path).splitlines()
     header_at = None
     for i, line in enumerate(lines):
@@ -85,7 +86,8 @@ def read_csv(
     table = _parse_rows(path, lines, data_idx, cols, len(names), skip_bad, report)
     scans = _group(path, table, max_range if max_range is not None else np.inf, skip_bad, report)
     if not scans:
-        raise ScanFormatError(path, None, "no usable scans")
+        first = f" (all skipped as bad; first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
+        raise ScanFormatError(path, None, f"no usable scans{first}")
     report.scans = len(scans)
     report.max_range = max_range
     return scans
@@ -97,8 +99,9 @@ def _parse_rows(path, lines, data_idx, cols, ncols, skip_bad, report) -> np.ndar
         # fast path: the whole table at once; any problem falls back to row-by-row for a precise message
         arr = np.loadtxt(io.StringIO("\n".join(lines[i] for i in data_idx)), delimiter=",", usecols=cols,
                          ndmin=2, dtype=np.float64)
+        # loadtxt reads the chosen columns of a row with extra fields without a word: count every row's
         if arr.shape[0] == len(data_idx) and np.isfinite(arr).all() and (arr[:, 6] >= 0).all() \
-                and all(lines[i].count(",") == ncols - 1 for i in (data_idx[0], data_idx[-1])):
+                and all(lines[i].count(",") == ncols - 1 for i in data_idx):
             return np.column_stack((arr, np.asarray(data_idx, np.float64) + 1))
     except ValueError:
         pass
@@ -118,6 +121,10 @@ def _parse_row(line: str, cols: list[int], ncols: int) -> list[float]:
     parts = line.split(",")
     if len(parts) < ncols:
         raise BadLine(None, f"truncated: {len(parts)} columns, the header has {ncols}")
+    if len(parts) > ncols:
+        # an extra comma (a decimal comma, say) shifts every column after it: the values would be wrong
+        raise BadLine(None, f"{len(parts)} columns, but the header has {ncols} (numbers take a decimal point, "
+                            f"not a comma)")
     out = []
     for name, c in zip(COLUMNS, cols):
         tok = parts[c].strip()

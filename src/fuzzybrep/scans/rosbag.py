@@ -228,7 +228,8 @@ def read_rosbag(
 
 
 def _reason(e: Exception) -> str:
-    text = str(e).strip() or "no details"
+    # one line: rosbags passes on the YAML parser's message, which draws the spot over several lines
+    text = " ".join(str(e).split()) or "no details"
     if "index" in text.lower():  # a ROS 1 bag cut off while recording has no index at its end
         text += " (if the recording was cut off, `rosbag reindex` may repair it)"
     return f"{type(e).__name__}: {text}"

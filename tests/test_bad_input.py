@@ -1,0 +1,194 @@
+"""Bad input through the command line: one clear line naming the file and what is wrong, exit 2, no traceback."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from fuzzybrep import cli
+from fuzzybrep.errors import MapFileError
+from fuzzybrep.mapfile import read_map
+
+
+def flaser(ranges, pose=(1.0, 2.0, 0.5), t=10.0) -> str:
+    r = " ".join(str(x) for x in ranges)
+    x, y, th = pose
+    return f"FLASER {len(ranges)} {r} {x} {y} {th} {x} {y} {th} {t} host {t}\n"
+
+
+def fails(capsys, argv, *words) -> str:
+    """Run the CLI, expect exit status 2 and one error line holding every word."""
+    assert cli.main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+@pytest.mark.parametrize("command, extra", [("build", ["--out", "m.json", "--quiet"]), ("grid", ["--out", "g"]),
+                                            ("evaluate", [])])
+def test_log_where_no_beam_returns(tmp_path, capsys, command, extra):
+    # every beam at the log's largest range: all "no return"; the builders crashed deep inside
+    log = tmp_path / "blind.log"
+    log.write_text("".join(flaser([5.0] * 9, (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    extra = [str(tmp_path / e) if e in ("m.json", "g") else e for e in extra]
+    fails(capsys, [command, log, *extra], "blind.log", "no beam has a return", "max_range 5")
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_log_where_no_beam_returns_maps_free_space_when_asked(tmp_path):
+    log = tmp_path / "blind.log"
+    log.write_text("".join(flaser([5.0] * 9, (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet", "--no-return-free", "3"]) == 0
+
+
+# ------------------------------------------------------------------------- map files
+
+
+def square_map(path):
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy import fuzzify
+
+    fuzzify(BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)])),)), tme=0.1).save(path, poses=[[1, 1, 0, 0]])
+    return json.loads(path.read_text())
+
+
+def edit(d, what):
+    shell = d["regions"][0]["shell"]
+    if what == "bowtie":
+        shell["x"], shell["y"] = [0, 4, 0, 4], [0, 4, 4, 0]
+    elif what == "nan vertex":
+        shell["x"][2] = float("nan")
+    elif what == "two vertices":
+        shell["x"], shell["y"], shell["kind"], shell["fm"] = [0, 1], [0, 1], [0, 0], [1, 1]
+    elif what.startswith(("kind", "fm")):
+        key, value = what.split()
+        shell[key][1] = float(value) if "." in value else int(value)
+    elif what == "unit":
+        d["unit"] = 5
+    elif what == "metadata":
+        d["metadata"] = [1, 2]
+    elif what == "regions":
+        d["regions"] = {"shell": shell}
+    elif what == "pose":
+        d["scans"]["poses"][0][2] = float("nan")
+    return d
+
+
+@pytest.mark.parametrize("what, words", [
+    ("bowtie", "principal, vertex 1: self-intersecting"),            # before: no file named
+    ("nan vertex", "principal, vertex 3: coordinate is not finite"),  # before: no file named
+    ("two vertices", "principal: a polygon needs at least 3 vertices"),
+    ("kind 300", "region 0 shell, vertex 2: edge kind 300 is neither"),  # before: traceback (OverflowError)
+    ("kind 7", "region 0 shell, vertex 2: edge kind 7 is neither"),      # before: read as it was
+    ("fm 1.5", "region 0 shell, vertex 2: FM index 1.5 is not a whole number"),  # before: read as FM 1
+    ("fm 0", "FM index 0 is not a whole number from 1 up"),
+    ("unit", "unit must be a string"),                                # before: traceback (AttributeError)
+    ("metadata", "metadata must be an object"),                       # before: "cannot convert dictionary update ..."
+    ("regions", "regions must be a list"),                            # before: "string indices must be integers"
+    ("pose", "scans.poses row 1 is not finite"),                      # before: NaN written into the viewer's page
+])
+def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps(edit(square_map(p), what)))
+    fails(capsys, ["memory", p], "m.json: ", words)
+    with pytest.raises(MapFileError, match=re.escape(words)):
+        read_map(p)
+
+
+# ------------------------------------------------------------------------- options
+
+
+@pytest.mark.parametrize("argv, words", [
+    # before: a traceback (ValueError from LineConfig, IndexError in the evidence grid, ValueError from
+    # holdout_split or occupancy_grid or the planner, or NumPy's seed check)
+    (["build", "LOG", "--out", "M", "--theta-step", "0"], "argument --theta-step: 0 must be in (0, 45] degrees"),
+    (["build", "LOG", "--out", "M", "--max-usable", "0"], "argument --max-usable: 0 must be a positive number"),
+    (["build", "LOG", "--out", "M", "--no-return-free", "nan"], "argument --no-return-free: nan must be a finite"),
+    (["evaluate", "LOG", "--holdout", "1"], "argument --holdout: K must be at least 2"),
+    (["evaluate", "LOG", "--resolution", "0"], "argument --resolution: 0 must be a positive number"),
+    (["plan", "MAP", "--start", "0", "0", "--goal", "nan", "1"], "argument --goal: nan must be a finite number"),
+    (["demo", "--seed", "-1"], "argument --seed: seed must be ≥ 0, got -1"),
+    (["simulate", "--seed", "-1"], "argument --seed: seed must be ≥ 0, got -1"),
+    # before: accepted, and meaningless (a negative free range or hole area, a NaN tolerance)
+    (["build", "LOG", "--out", "M", "--no-return-free", "-1"], "argument --no-return-free: -1 must be a finite number ≥ 0"),
+    (["build", "LOG", "--out", "M", "--min-hole-area", "-1"], "argument --min-hole-area: -1 must be a finite number ≥ 0"),
+    (["build", "LOG", "--out", "M", "--simplify", "nan"], "argument --simplify: nan must be a finite number ≥ 0"),
+    (["grid", "LOG", "--out", "G", "--no-return-free", "-1"], "argument --no-return-free: -1 must be"),
+    # before: the grid was written outside --out (../x.pgm), or as ".yaml" and ".yaml.pgm"
+    (["grid", "LOG", "--out", "G", "--name", "../x"], "argument --name: name must be a plain file name"),
+    (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
+])
+def test_bad_options_are_usage_errors(capsys, argv, words):
+    with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written
+        cli.main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------------- evaluate with nothing to score
+
+
+def test_evaluate_with_no_scan_held_out(tmp_path, capsys):
+    # before: "0 held out (every 5th)" and "explained nan %" (NaN in --json), exit 0
+    log = tmp_path / "four.log"
+    log.write_text("".join(flaser([1.0, 2.0, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    fails(capsys, ["evaluate", log, "--holdout", "5"], "four.log: 4 scan(s): holding out every 5th leaves none "
+                                                         "to score; give --holdout 2 to 4")
+    one = tmp_path / "one.log"
+    one.write_text(flaser([1.0, 2.0, 9.0]))
+    fails(capsys, ["evaluate", one, "--json"], "one.log: 1 scan(s): holding out every second leaves none to score")
+
+
+def test_evaluate_with_no_held_out_return_near_enough(tmp_path, capsys):
+    log = tmp_path / "far.log"
+    log.write_text("".join(flaser([1.0, 2.0, 9.0] if k % 2 == 0 else [6.0, 7.0, 9.0], (0.1 * k, 0.0, 0.0), k)
+                           for k in range(4)))
+    fails(capsys, ["evaluate", log], "far.log: no held-out scan has a return within 5 m")
+
+
+# ------------------------------------------------------------------------- output paths
+
+
+def test_out_below_a_file_or_on_a_folder_fails_before_the_work(tmp_path, capsys):
+    # before: "cannot write: File exists" / "Device or resource busy", and only after the whole build
+    (tmp_path / "afile").write_text("x")
+    missing_log = tmp_path / "not-read.log"  # the output is checked first: the log is never opened
+    fails(capsys, ["build", missing_log, "--out", tmp_path / "afile" / "sub" / "m.json"],
+          "m.json: cannot write: ", "afile is a file, not a folder")
+    fails(capsys, ["build", missing_log, "--out", tmp_path], "cannot write: it is a folder (give a file name)")
+    fails(capsys, ["build", missing_log, "--out", tmp_path / "m.json", "--plot", tmp_path],
+          "cannot write: it is a folder")
+    fails(capsys, ["demo", "--out", tmp_path / "afile"], "afile is a file, not a folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys, monkeypatch):
+    log = tmp_path / "a.log"
+    log.write_text("".join(flaser([1.0, 2.0, 1.5, 2.5, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(3)))
+    out = tmp_path / "m.json"
+    assert cli.main(["build", str(log), "--out", str(out), "--quiet"]) == 0
+    before = out.read_bytes()
+
+    def full(fd):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr("fuzzybrep.mapfile.os.fsync", full)
+    fails(capsys, ["build", log, "--out", out, "--quiet", "--tme", "0.5"], "m.json: cannot write: No space left")
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]
+
+
+@pytest.mark.parametrize("command", ["grid", "evaluate"])
+def test_resolution_too_fine_for_any_memory(tmp_path, capsys, command):
+    # before: a traceback, NumPy unable to allocate some petabytes
+    log = tmp_path / "a.log"
+    log.write_text("".join(flaser([1.0, 2.0, 1.5, 2.5, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(4)))
+    extra = ["--out", tmp_path / "g"] if command == "grid" else []
+    fails(capsys, [command, log, "--resolution", "1e-6", *extra], "a.log: a grid at resolution 1e-06 over these "
+                                                                   "scans would have about", "give a coarser --resolution")
+    assert not (tmp_path / "g").exists()
