@@ -9,6 +9,7 @@ import pytest
 
 from fuzzybrep import cli
 from fuzzybrep.errors import MapFileError
+from fuzzybrep.fuzzy import FuzzyBRepMap
 from fuzzybrep.mapfile import read_map
 
 
@@ -192,3 +193,12 @@ def test_resolution_too_fine_for_any_memory(tmp_path, capsys, command):
     fails(capsys, [command, log, "--resolution", "1e-6", *extra], "a.log: a grid at resolution 1e-06 over these "
                                                                    "scans would have about", "give a coarser --resolution")
     assert not (tmp_path / "g").exists()
+
+
+def test_fm_index_without_a_function_names_the_map_file(tmp_path, capsys):
+    # read_map leaves the FM column to the table (a file may hold a crisp map); loading checks it
+    p = tmp_path / "m.json"
+    p.write_text(json.dumps(edit(square_map(p), "fm 9")))
+    fails(capsys, ["memory", p], "m.json: ", "principal, vertex 2: FM index 9 has no membership function")  # before: no file
+    with pytest.raises(MapFileError, match="m.json: principal, vertex 2: FM index 9"):
+        FuzzyBRepMap.load(p)

@@ -630,17 +630,23 @@ class FuzzyBRepMap:
 
     @classmethod
     def from_mapfile(cls, m: MapFile, path: str | os.PathLike = "<map>", tme: float | None = None) -> "FuzzyBRepMap":
-        """Rebuild from a map file. A crisp map (no Table 4.2) is fuzzified with ``tme`` if given."""
+        """Rebuild from a map file as ``read_map`` returns it (its rings already checked there). A
+        crisp map (no Table 4.2) is fuzzified with ``tme`` if given. MapFileError names ``path``."""
         if not m.membership_functions:
             if tme is None:
                 raise MapFileError(path, "the map has no membership-function table (it is crisp): "
                                          "fuzzify it first or give a TME")
-            return fuzzify(m.crisp, tme=tme)
+            table = None
+        else:
+            try:
+                table = MembershipTable.from_dicts(m.membership_functions)
+            except MembershipFunctionError as e:
+                raise MapFileError(path, str(e)) from None
         try:
-            table = MembershipTable.from_dicts(m.membership_functions)
-        except MembershipFunctionError as e:
+            # read_map validated the rings: checking them again would double the cost of a load
+            return fuzzify(m.crisp, table, tme=tme if table is None else None, validate=False)
+        except GeometryError as e:  # an FM index with no function in the file's table
             raise MapFileError(path, str(e)) from None
-        return fuzzify(m.crisp, table)
 
     @classmethod
     def load(cls, path: str | os.PathLike, tme: float | None = None) -> "FuzzyBRepMap":
