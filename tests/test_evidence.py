@@ -5,11 +5,13 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 import shapely
 from _synthetic import scan_of
 
 from fuzzybrep import evidence
 from fuzzybrep.build import BuildConfig, build_map
+from fuzzybrep.errors import GeometryError
 from fuzzybrep.scans.scan import Scan
 
 FULL = 2 * np.pi - np.radians(1)
@@ -126,3 +128,13 @@ def test_bridged_joins_occupied_cells_closer_than_the_span():
     row = evidence.bridged(ev, 0.8).reshape(40, 40)
     assert row[10, 10:25].all() and row.sum() == 15 + 1
     assert evidence.bridged(ev, 0.5).sum() == 3
+
+
+def test_scans_that_see_nothing_are_refused_clearly():
+    # every beam without a return (or ending within cross_margin of the sensor) crosses no cell:
+    # gather once failed on the empty batch with an IndexError, not the map's own error
+    bearings = np.linspace(-np.pi / 2, np.pi / 2, 181)
+    for r in (81.83, 0.1):
+        scans = [Scan(np.full(181, r), bearings, np.zeros(3), float(t), 81.83) for t in range(3)]
+        with pytest.raises(GeometryError, match="no free space"):
+            build_map(scans)

@@ -212,7 +212,8 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
         short = k * cfg.step < reach[ray]
         r_, c_ = ray[short], c[short]
         # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
-        first_in_cell = np.r_[True, (c_[1:] != c_[:-1]) | (r_[1:] != r_[:-1])]
+        # (a chunk whose rays all end within cross_margin crosses nothing)
+        first_in_cell = np.r_[True, (c_[1:] != c_[:-1]) | (r_[1:] != r_[:-1])][: len(c_)]
         c_, t = c_[first_in_cell], rays.time[r_[first_in_cell]]
         counts = np.bincount(c_[t > last_near[c_]], minlength=nx * ny), np.bincount(c_, minlength=nx * ny)
         return counts, ((lo, hi), ray, k, c) if keep else None
