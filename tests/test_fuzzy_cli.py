@@ -235,7 +235,9 @@ def test_fuzzify_cli_names_the_bad_vertex(tmp_path, capsys):
     p.write_text(json.dumps({"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [0, 4], [6, 4], [0, 0]]]}))
     assert run("fuzzify", p, "--tme", 0.1, "--out", tmp_path / "m.json") == 2
     err = capsys.readouterr().err
-    assert "fuzzybrep fuzzify: error: polygon outer ring, vertex" in err and "self-intersecting" in err
+    assert f"fuzzybrep fuzzify: error: {p}: polygon outer ring, vertex" in err and "self-intersecting" in err
+    with pytest.raises(MapFileError, match=r"bow.geojson: polygon outer ring, vertex \d: self-intersecting"):
+        read_geojson(p)
 
 
 def test_read_points(tmp_path):

@@ -23,8 +23,8 @@ from .errors import GeometryError, MapFileError
 from .scans.read import is_float
 
 def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
-    """The crisp map in a GeoJSON file. MapFileError for unreadable files or wrong structure,
-    GeometryError (naming feature, polygon, ring and vertex) for bad geometry."""
+    """The crisp map in a GeoJSON file. MapFileError naming the file for anything wrong: unreadable,
+    wrong structure, or bad geometry (then also the feature, polygon, ring and vertex)."""
     path = Path(path)
     try:
         raw = path.read_text(encoding="utf-8")
@@ -36,9 +36,7 @@ def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
         raise MapFileError(path, f"not valid JSON ({e})") from None
     try:
         return crisp_from_geojson(obj, unit)
-    except ValueError as e:
-        if isinstance(e, GeometryError):
-            raise
+    except ValueError as e:  # GeometryError among them
         raise MapFileError(path, str(e)) from None
 
 
