@@ -247,3 +247,6 @@ def test_read_points(tmp_path):
     p.write_text("1\n")
     with pytest.raises(MapFileError, match="line 1: expected x,y"):
         read_points(p)
+    p.write_text("x,y\n\n")
+    with pytest.raises(MapFileError, match="p.csv: no x,y points in the file"):
+        read_points(p)

@@ -141,7 +141,8 @@ def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
 
 
 def read_points(path: str | os.PathLike) -> np.ndarray:
-    """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional."""
+    """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional; at
+    least one point."""
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8") as fh:
@@ -166,4 +167,6 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MapFileError(path, f"line {line}: x,y must be finite")
         pts.append((x, y))
-    return np.array(pts, dtype=np.float64).reshape(-1, 2)
+    if not pts:  # an empty query is a mistake (a wrong file), not a question with no answers
+        raise MapFileError(path, "no x,y points in the file")
+    return np.array(pts, dtype=np.float64)
