@@ -213,6 +213,8 @@ def test_bad_parameters_and_scans_that_mark_nothing_are_refused():
     blind = [Scan(np.full(5, 8.0), np.linspace(-1, 1, 5), np.zeros(3), 0.0, 8.0)]
     with pytest.raises(ValueError, match="no beam marks anything"):
         occupancy_grid(blind, RES)
+    with pytest.raises(ValueError, match=r"cells at resolution 1e-05 is too large \(limit"):
+        occupancy_grid(scans, 1e-5)  # before: NumPy asked for terabytes
     with pytest.raises(ValueError, match="free_thresh"):
         OccupancyGrid(np.zeros((2, 2)), (0, 0), RES, free_thresh=0.7)
 

@@ -33,7 +33,7 @@ from scipy import ndimage
 from .brep import FRONTIER, BRepMap
 from .geojson import alpha_cut_collection
 from .mapfile import write_atomic
-from .rosmap import FREE_THRESH, OCCUPIED_THRESH, write_ros_map
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, write_ros_map
 
 #: default levels of ``fuzzybrep export --geojson`` and ``--svg``
 DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -52,8 +52,6 @@ OCCUPIED_GREY = 0
 OCCUPIED_STEPS = 88
 _UNIT_QUANTUM = {"m": 1e-3, "cm": 0.1, "mm": 1.0}
 METRES_PER_UNIT = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-#: refuse rasters larger than this many cells (a too fine --resolution over a large map)
-MAX_CELLS = 40_000_000
 
 
 def coordinate_quantum(unit: str, extent: float) -> float:

@@ -32,7 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .rosmap import FREE_THRESH, OCCUPIED_THRESH
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH
 from .scans.scan import Scan
 
 
@@ -221,6 +221,9 @@ def occupancy_grid(
     j0 = np.floor(min(b.oy.min(), ey.min()) / resolution) - 1
     nx = int(np.floor(max(b.ox.max(), ex.max()) / resolution) - i0) + 2
     ny = int(np.floor(max(b.oy.max(), ey.max()) / resolution) - j0) + 2
+    if nx * ny > MAX_CELLS:
+        raise ValueError(f"a grid of {nx} × {ny} cells at resolution {resolution:g} is too large "
+                         f"(limit {MAX_CELLS} cells): give a coarser resolution")
     ou, ov = b.ox / resolution - i0, b.oy / resolution - j0
     eu, ev = ex / resolution - i0, ey / resolution - j0
 

@@ -36,6 +36,9 @@ from .mapfile import write_atomic
 #: map_saver's thresholds: p > 0.65 is occupied, p < 0.196 is free (the defaults everywhere)
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
+#: refuse rasters larger than this many cells (a too fine resolution over a large map): 160 MB of
+#: float32, where a mistyped resolution would otherwise end in NumPy failing to allocate petabytes
+MAX_CELLS = 40_000_000
 #: map_saver's grey levels (trinary mode)
 PIXEL_OCCUPIED, PIXEL_FREE, PIXEL_UNKNOWN = 0, 254, 205
 MODES = ("trinary", "scale", "raw")

@@ -36,8 +36,8 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
     import numpy as np
 
     from ..errors import ScanValueError
-    from ..export import MAX_CELLS
     from ..grid import beams_of
+    from ..rosmap import MAX_CELLS
 
     xy = np.array([s.pose[:2] for s in scans])
     lo, hi = xy.min(axis=0) - max(max_usable, no_return_free), xy.max(axis=0) + max(max_usable, no_return_free)
