@@ -121,6 +121,21 @@ def test_safe_region_shrinks_by_the_radius_and_no_more_than_two_percent_more():
     assert d.min() >= 0.5 - TOL and d.max() <= 0.5 * 1.021 + TOL
 
 
+@pytest.mark.parametrize("grid", [0.01, 0.1, 0.5])
+def test_a_region_with_a_precision_grid_is_shrunk_like_any_other(grid):
+    # shapely.set_precision leaves a fixed precision model on the geometry, and GEOS computes
+    # a buffer of it on that grid: the shrink came out too large (0.01), empty (0.1), or
+    # larger than the free space itself (0.5)
+    free = shapely.set_precision(ROOM.difference(shapely.Polygon([(4, 2), (6, 2.3), (5.2, 4.1)])), grid)
+    assert shapely.get_precision(free) == grid
+    floating = shapely.set_precision(free, 0)  # the same coordinates: what the checks measure in
+    safe = safe_region(free, radius=0.3)
+    assert safe.equals_exact(safe_region(floating, radius=0.3), 0)
+    assert shapely.covers(shapely.buffer(floating, -0.3 + TOL, quad_segs=64), safe)
+    p = plan(free, (1, 3), (9, 3), radius=0.3)
+    assert_safe(p, floating, 0.3)
+
+
 def test_radius_keeps_the_path_off_the_corners():
     free = ROOM.difference(box(4, 2, 6, 4))
     p = plan(free, (1, 3), (9, 3), radius=0.3)

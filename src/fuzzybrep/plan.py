@@ -134,6 +134,13 @@ def _grid(extent: float) -> float:
     return 2.0 ** math.floor(math.log2(extent * RELATIVE_TOLERANCE / 8))
 
 
+def _floating(geom: shapely.Geometry) -> shapely.Geometry:
+    """``geom`` without a fixed precision model (``shapely.set_precision`` leaves one on its result),
+    coordinates unchanged: GEOS computes a buffer of such a geometry on its grid, so a shrink by
+    0.3 on a 0.1 grid came out empty, and on a 0.5 grid larger than the region itself."""
+    return shapely.set_precision(geom, 0) if shapely.get_precision(geom) > 0 else geom
+
+
 def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
     """free ⊖ disc(radius), never larger than the exact erosion, snapped and oriented.
 
@@ -144,6 +151,7 @@ def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
     d = radius / (cos(3π/8q) − 10⁻³) keeps every point at least ``radius`` from the edge of the
     free space. (GEOS also simplifies its input first, but only where that moves the curve away.)
     """
+    free = _floating(free)
     extent = _extent(free)
     if radius > 0:
         free = shapely.buffer(free, -radius * RADIUS_FACTOR, quad_segs=QUAD_SEGS)
@@ -176,7 +184,7 @@ class Planner:
         # weakly: a planner kept with its map (``planner``) must not keep the map alive
         self._fuzzy = None if fuzzy is None else weakref.ref(fuzzy)
         self.unit = fuzzy.unit if fuzzy is not None else unit
-        self.free = polygonal(free)
+        self.free = _floating(polygonal(free))
         self.safe = _shrink(self.free, self.radius)
         self.pieces = shapely.get_parts(self.safe)
         shapely.prepare(self.safe)
