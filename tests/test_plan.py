@@ -15,6 +15,7 @@ import os
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -189,6 +190,42 @@ def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=0.01)  # the disc's edge 0.1 from the wall
     with pytest.raises(PointNotFreeError, match="no α frees it"):
         plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
+
+
+@pytest.mark.parametrize("mode", ["shortest", "clearance"])
+def test_the_nearest_free_point_an_error_suggests_is_free(mode):
+    # the nearest point of the safe region, computed in floats, lies as often 1e-16 outside it
+    # as inside: it was refused as "closer than the radius ... 1.5e-16 m away"
+    free = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
+    pl = plan_module.Planner(free, 0.3)
+    goal = shapely.affinity.rotate(shapely.Point(1, 1), 17, origin=(0, 0)).coords[0]
+    x0, y0, x1, y1 = free.bounds
+    tried = 0
+    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
+        try:
+            pl.piece(p)
+            continue
+        except PointNotFreeError as e:
+            nearest = np.asarray(e.nearest)
+        tried += 1
+        q = pl.plan(nearest, goal, mode)
+        assert q.path[0].tolist() == nearest.tolist() and q.path[-1].tolist() == list(goal)
+        assert_safe(q, free, 0.3)
+        assert pl.covers(q.path)
+    assert tried > 40
+
+
+def test_a_point_on_an_edge_is_free():
+    free = ROOM.difference(shapely.Polygon([(4, 2), (6, 2.3), (5.2, 4.1)]))
+    a, b = np.array([4.0, 2.0]), np.array([6.0, 2.3])
+    into_the_obstacle = np.array([-0.3, 2.0]) / math.hypot(0.3, 2.0)
+    for t in np.linspace(0.01, 0.99, 37):
+        on_edge = a + t * (b - a)  # on the obstacle's edge, to within the last bit
+        p = plan(free, on_edge, (9, 1))
+        assert p.path[0].tolist() == on_edge.tolist()
+        assert_safe(p, free)
+        with pytest.raises(PointNotFreeError):  # but not a micrometre inside the obstacle
+            plan(free, on_edge + 1e-6 * into_the_obstacle, (9, 1))
 
 
 def test_disconnected_pieces_are_no_connection():

@@ -41,6 +41,10 @@ EXACT_CUT_QUAD_SEGS = 8
 #: (merging vertices that rounding left 1e-15 apart), and paths are checked against the safe
 #: region grown by ``RELATIVE_TOLERANCE`` times the map's size
 RELATIVE_TOLERANCE = 1e-9
+#: start and goal this far outside the safe region, times ``Planner.tolerance``, are on its edge
+#: (``Planner.piece``): with the move into the region (``Planner._into``) at most 5/16 of the
+#: tolerance, which the tolerance's buffer (one chord per quarter circle) covers everywhere
+ON_EDGE = 1 / 4
 #: clearance mode: boundary points for the medial axis, at most about this many
 _MEDIAL_SITES = 40_000
 #: clearance mode: how many nearest medial-axis nodes to try to step onto from start and goal,
@@ -254,13 +258,42 @@ class Planner:
     # -- queries ----------------------------------------------------------------------------
 
     def piece(self, point, which: str = "point") -> int:
-        """Index of the piece of the safe region holding ``point`` (its boundary included);
-        PointNotFreeError saying why and how far off if none does."""
+        """Index of the piece of the safe region holding ``point`` (its boundary included, to
+        within ``ON_EDGE`` × ``tolerance``); PointNotFreeError saying why and how far off if none
+        does.
+
+        A point on the region's edge computed in floats (one between two vertices, or the
+        nearest free point a PointNotFreeError names) lies as often just outside the edge as
+        on it, and snapping the region's coordinates (``_shrink``) moves its edges by up to
+        10⁻¹⁰ of the map's size: such a point is free as well."""
         p = _point(point, which)
         inside = np.flatnonzero(shapely.intersects_xy(self.pieces, p[0], p[1]))
         if len(inside) == 0:
+            d = shapely.distance(self.pieces, shapely.Point(p))
+            if len(d) and d.min() <= ON_EDGE * self.tolerance:
+                return int(np.argmin(d))
             raise self._not_free(which, p)
         return int(inside[0])
+
+    def _into(self, p: np.ndarray, piece: int) -> np.ndarray | None:
+        """``p`` if it lies in the piece, else a point of the piece within (``ON_EDGE`` + 1/16) ×
+        ``tolerance`` of it (None if rounding defeats that): the walks and the triangulation
+        decide exactly, and find no way from a point just outside the region.
+
+        The nearest point of the piece, moved a sixteenth of the tolerance towards the middle of
+        a triangle of the piece beside it: triangles are convex, so that stays in the piece."""
+        region = self.pieces[piece]
+        if shapely.intersects_xy(region, p[0], p[1]):
+            return p
+        tri = self._triangulation
+        n = np.asarray(shapely.shortest_line(region, shapely.Point(p)).coords)[0]
+        near = tri.near(n, self.tolerance)
+        c = tri.points[tri.triangles[near]].mean(axis=1)
+        c = c[shapely.intersects_xy(region, c[:, 0], c[:, 1])]
+        for q in n + np.minimum(1, self.tolerance / 16 / np.hypot(*(c - n).T))[:, None] * (c - n):
+            if shapely.intersects_xy(region, q[0], q[1]):
+                return q
+        return None
 
     def covers(self, path) -> bool:
         """Whether the polyline lies in the safe region (grown by ``tolerance`` for GEOS)."""
@@ -284,6 +317,12 @@ class Planner:
                 f"start and goal lie in different pieces of the safe region{self._where()} (pieces {ps + 1} and "
                 f"{pg + 1} of {len(self.pieces)}, areas {self.pieces[ps].area:.3g} and {self.pieces[pg].area:.3g} "
                 f"{self.unit}²): no path joins them", ps, pg)
+        given = s, g
+        s, g = self._into(s, ps), self._into(g, pg)
+        if s is None or g is None:
+            raise PlanError(f"no verified path found between {tuple(given[0])} and {tuple(given[1])}: "
+                            f"{'start' if s is None else 'goal'} lies on the edge of the safe region{self._where()}, "
+                            "and rounding keeps it out")
         note = None
         path = self._clearance_path(s, g, ps) if mode == "clearance" else None
         if path is None:
@@ -291,6 +330,14 @@ class Planner:
             if mode == "clearance":
                 note = "; ".join(filter(None, ("the medial axis does not join start and goal: shortest path instead",
                                                note)))
+        if s is not given[0] or g is not given[1]:
+            # planned from points moved into the region by at most (ON_EDGE + 1/16) × tolerance:
+            # the path starts and ends where asked, and is still within the tolerance of it
+            path = np.vstack((given[0], path[1:-1], given[1]))
+            if not self.covers(path):
+                raise PlanError(f"no verified path found between {tuple(given[0])} and {tuple(given[1])} "
+                                f"on the edge of the safe region{self._where()}")
+            s, g = given
         d = np.diff(path, axis=0)
         length = float(np.hypot(d[:, 0], d[:, 1]).sum())
         line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
