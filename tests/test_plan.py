@@ -187,9 +187,36 @@ def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     # the wall is d = 0.2·sin 45° in at α = 0 (see above), the radius 2 % more (``_shrink``)
     d = 0.2 / math.sqrt(2)
     assert e.value.distance == pytest.approx(d + 0.3 * RADIUS_FACTOR - 0.4, abs=1e-6)
-    assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=0.01)  # the disc's edge 0.1 from the wall
+    # the safe region keeps 0.3·RADIUS_FACTOR off the wall, (1 − α)·d in at α: the point is free
+    # from the α at which that disc's edge, 0.4 − 0.3·RADIUS_FACTOR from the wall, leaves the band
+    # (the disc of the radius alone gave 1 − 0.1/d, 0.045 too low: not free there)
+    need = 1 - (0.4 - 0.3 * RADIUS_FACTOR) / d
+    assert e.value.alpha_needed == pytest.approx(need, abs=1e-3)
+    assert f"free from about α = {need:.3g} on with radius 0.3" in str(e.value)
+    planner(pillar_room, need + 1e-3, 0.3).piece((1, 0.4))
+    with pytest.raises(PointNotFreeError):
+        planner(pillar_room, need - 1e-3, 0.3).piece((1, 0.4))
     with pytest.raises(PointNotFreeError, match="no α frees it"):
         plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
+
+
+@pytest.mark.parametrize("dx", [0.0, 0.01, 0.03])
+def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
+    # a spike 0.2 wide and 3 long into the room: the sweep moves its tip 0.2 along the bisector,
+    # so the band about the tip is a wedge 2 cm wide where the disc crosses it, which 48 samples
+    # of the disc's edge missed (α = 0 given, 0.499 true for dx = 0.01)
+    room = ROOM.difference(shapely.Polygon([(4.9, -1), (5.1, -1), (5, 2)]))
+    fz = fuzzify(BRepMap.from_shapely(room), tme=0.2)
+    p = (5 + dx, 2.1 + 0.3 * RADIUS_FACTOR)  # free once the tip, 2 + 0.2·(1 − α), is down to 2.1
+    with pytest.raises(PointNotFreeError) as e:
+        plan(fz, p, (1, 3), radius=0.3)
+    need = e.value.alpha_needed
+    assert need == pytest.approx(0.5, abs=0.01 + 2 * dx)
+    planner(fz, min(need + 2e-3, 1), 0.3).piece(p)  # free where the error says
+    # and not much before: the buffer's chords round the tip up to 2 % of the radius nearer
+    # (``_shrink``), 0.03 in α here, so the planner frees it from between 0.47 and 0.5
+    with pytest.raises(PointNotFreeError):
+        planner(fz, need - 0.04, 0.3).piece(p)
 
 
 @pytest.mark.parametrize("mode", ["shortest", "clearance"])
@@ -488,6 +515,27 @@ def test_real_map_refuses_points_that_are_not_free(real):
     hole = max(holes, key=lambda h: h.area)
     with pytest.raises(PointNotFreeError, match="obstacle|outside"):
         plan(fz, inside, shapely.get_coordinates(shapely.point_on_surface(hole))[0])
+
+
+@pytest.mark.reallog
+def test_real_map_the_alpha_an_error_names_frees_the_point(real):
+    name, _, fz, free = real
+    pl = planner(fz, 0.0, 0.2)
+    band = shapely.difference(fz.crisp_geometry, pl.safe)
+    checked = 0
+    for p in free_points(band, 40, np.random.default_rng(8)):
+        with pytest.raises(PointNotFreeError) as e:
+            pl.plan(p, p)
+        need = e.value.alpha_needed
+        if need is None or need > 0.94:
+            continue
+        plan_module.Planner.of(fz, need + 0.01, 0.2).piece(p)  # the disc of the radius alone: never
+        with pytest.raises(PointNotFreeError):  # nor long before (chords: ``_shrink``)
+            plan_module.Planner.of(fz, max(need - 0.05, 0), 0.2).piece(p)
+        checked += 1
+        if checked == 3:
+            break
+    assert checked == 3
 
 
 @pytest.mark.reallog

@@ -480,20 +480,63 @@ class Planner:
         return why, need
 
     def _alpha_needed(self, fuzzy: FuzzyBRepMap, p: np.ndarray) -> float | None:
-        """About the smallest α at which ``p`` is safe: the largest μ over the robot's disc.
+        """About the smallest α at which ``p`` is safe: the largest μ over the disc that the safe
+        region keeps clear around its points, of radius × ``RADIUS_FACTOR`` (``_shrink``).
 
         For a point of the crisp free space, μ is the largest α at which it is still outside the
-        inner α-cut, so the disc fits in the inner α-cut from α = max μ over the disc on.
-        Sampled on rings of the disc: an estimate, not a bound.
+        inner α-cut, so the disc fits in the inner α-cut from α = max μ over the disc on. μ is
+        sampled where its largest values lie: on the disc's edge, densely and then more densely
+        about the largest samples, and where the sweep's α-cut corners cross the disc (each
+        moves along a line from its crisp vertex, and μ peaks narrowly about that line). With
+        48 samples of the edge this missed by up to 0.24 on the real maps, and a disc of the
+        radius alone put every answer too low by the 2 %. Exact at radius 0; else an estimate,
+        not a bound: on the real maps the planner frees the point from within 0.01 of it, mostly
+        a little below (GEOS's chords round corners nearer than radius × ``RADIUS_FACTOR``).
         """
-        r = self.radius
-        pts = [p[None]]
-        for frac, n in ((1.0, 48), (2 / 3, 32), (1 / 3, 16)):
-            if r > 0:
-                a = np.linspace(0, 2 * np.pi, n, endpoint=False)
-                pts.append(p + frac * r * np.column_stack((np.cos(a), np.sin(a))))
-        mu = fuzzy.membership(np.vstack(pts), self.method or "sweep")
-        return float(mu.max()) if mu.max() < 1 else None
+        method = self.method or "sweep"
+        R = self.radius * RADIUS_FACTOR
+        if R == 0:
+            mu = float(fuzzy.membership(p[None], method)[0])
+            return mu if mu < 1 else None
+        a = np.linspace(0, 2 * np.pi, _EDGE_SAMPLES, endpoint=False)
+        step = 2 * np.pi / _EDGE_SAMPLES
+        edge = fuzzy.membership(p + R * np.column_stack((np.cos(a), np.sin(a))), method)
+        inner = [p[None], _corner_crossings(fuzzy, p, R)]
+        for frac, n in ((2 / 3, 32), (1 / 3, 16)):
+            b = np.linspace(0, 2 * np.pi, n, endpoint=False)
+            inner.append(p + frac * R * np.column_stack((np.cos(b), np.sin(b))))
+        best = max(edge.max(), fuzzy.membership(np.vstack(inner), method).max())
+        for _ in range(2):
+            # about the largest samples, 32 steps across the step either side of each
+            a = (a[np.argsort(edge)[-16:], None] + np.linspace(-step, step, 33)).ravel()
+            step /= 16
+            edge = fuzzy.membership(p + R * np.column_stack((np.cos(a), np.sin(a))), method)
+            best = max(best, edge.max())
+        return float(best) if best < 1 else None
+
+
+#: ``Planner._alpha_needed``: samples of the disc's edge before refining about the largest
+_EDGE_SAMPLES = 256
+
+
+def _corner_crossings(fuzzy: FuzzyBRepMap, p: np.ndarray, R: float) -> np.ndarray:
+    """Where the sweep's inner α-cut corners, moving from α = 0 to α = 1, last lie in the disc
+    of radius ``R`` about ``p``: the point of each corner's path (a segment from its place at
+    α = 0 to its crisp vertex) nearest the crisp vertex within the disc. (k, 2)."""
+    v, _ = fuzzy.offset_vertices(1.0)  # the crisp vertices
+    w, _ = fuzzy.offset_vertices(0.0)
+    d, f = w - v, v - p
+    a = np.einsum("ij,ij->i", d, d)
+    b = 2 * np.einsum("ij,ij->i", f, d)
+    c = np.einsum("ij,ij->i", f, f) - R * R
+    disc = b * b - 4 * a * c
+    ok = (a > 0) & (disc >= 0)
+    root = np.sqrt(np.where(ok, disc, 0))
+    safe_a = np.where(ok, a, 1)
+    t0, t1 = (-b - root) / (2 * safe_a), (-b + root) / (2 * safe_a)
+    ok &= (t0 <= 1) & (t1 >= 0)
+    t = np.clip(t0, 0, 1)[ok]
+    return v[ok] + t[:, None] * d[ok]
 
 
 def _point(point, which: str) -> np.ndarray:
