@@ -336,6 +336,16 @@ def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypat
     assert "not the shortest" in p.note
 
 
+def test_free_points_refuses_a_region_with_no_area():
+    # the empty safe region (a radius that leaves nothing free) failed with NumPy's "Range exceeds
+    # valid bounds", and a region of no area, a line, drew forever
+    empty = plan_module.Planner(ROOM, 4).safe
+    for region in (empty, shapely.LineString([(0, 0), (1, 1)])):
+        with pytest.raises(ValueError, match="no area"):
+            free_points(region, 2, np.random.default_rng(0))
+    assert shapely.contains_xy(ROOM, *free_points(ROOM, 5, np.random.default_rng(0)).T).all()
+
+
 # ------------------------------------------------------------------- clearance mode
 
 L_CORRIDOR = shapely.union(box(0, 0, 2, 10), box(0, 8, 12, 10))  # 2 m wide, turning right

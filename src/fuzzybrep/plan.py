@@ -597,6 +597,9 @@ __all__ = ["MODES", "Plan", "Planner", "free_space", "plan", "planner", "safe_re
 
 def free_points(region, n: int, rng: np.random.Generator) -> np.ndarray:
     """(n, 2) points drawn uniformly inside ``region`` (e.g. a safe region): starts and goals to try."""
+    if not region.area > 0:  # no draw would ever land inside (and an empty one has no bounds)
+        raise ValueError(f"cannot draw points inside a region with no area ({region.geom_type}, "
+                         f"{'empty' if region.is_empty else 'area 0'})")
     x0, y0, x1, y1 = region.bounds
     out = np.zeros((0, 2))
     while len(out) < n:
