@@ -113,6 +113,44 @@ def test_way_round_a_convex_pillar_is_the_shorter_hull_chain(n, turn, size, sy, 
     assert_safe(p, free)
 
 
+def brute_force_length(safe, s, g) -> float:
+    """Shortest path length by the plain visibility graph: start, goal and every vertex of the
+    region, joined where GEOS finds the segment covered (within TOL), searched by Dijkstra."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    pts = np.vstack((s, g, np.unique(shapely.get_coordinates(safe), axis=0)))
+    i, j = np.triu_indices(len(pts), 1)
+    ok = shapely.covers(shapely.buffer(safe, TOL), shapely.linestrings(np.stack((pts[i], pts[j]), axis=1)))
+    w = np.hypot(*(pts[i] - pts[j]).T)
+    graph = csr_matrix((np.maximum(w[ok], 1e-300), (i[ok], j[ok])), shape=(len(pts), len(pts)))
+    return float(dijkstra(graph, directed=False, indices=0)[1])
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(holes=st.lists(st.tuples(st.floats(1, 9), st.floats(1, 5), st.floats(0.1, 1.5), st.floats(0.1, 1.5),
+                                st.floats(0, math.pi)), min_size=1, max_size=5),
+       radius=st.sampled_from([0.0, 0.15]), seed=st.integers(0, 2**16))
+def test_shortest_paths_are_as_short_as_the_full_visibility_graphs(holes, radius, seed):
+    # rotated rectangles, overlapping or touching the walls or each other at random
+    obstacles = [shapely.affinity.rotate(box(x - w, y - h, x + w, y + h), turn, use_radians=True)
+                 for x, y, w, h, turn in holes]
+    free = ROOM.difference(shapely.union_all(obstacles))
+    pl = plan_module.Planner(free, radius)
+    if pl.safe.is_empty:
+        return
+    rng = np.random.default_rng(seed)
+    for s, g in free_points(pl.safe, 6, rng).reshape(3, 2, 2):
+        try:
+            p = pl.plan(s, g)
+        except NoConnectionError:
+            assert pl.piece(s) != pl.piece(g)
+            continue
+        assert p.note is None
+        assert p.length == pytest.approx(brute_force_length(pl.safe, s, g), rel=1e-9, abs=1e-9)
+        assert_safe(p, free, radius)
+
+
 def test_safe_region_shrinks_by_the_radius_and_no_more_than_two_percent_more():
     free = ROOM.difference(box(4, 2, 6, 4))
     safe = safe_region(free, radius=0.5)
