@@ -11,10 +11,12 @@ import gc
 import json
 import math
 import os
+import re
 
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -112,6 +114,44 @@ def test_way_round_a_convex_pillar_is_the_shorter_hull_chain(n, turn, size, sy, 
     assert_safe(p, free)
 
 
+def brute_force_length(safe, s, g) -> float:
+    """Shortest path length by the plain visibility graph: start, goal and every vertex of the
+    region, joined where GEOS finds the segment covered (within TOL), searched by Dijkstra."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    pts = np.vstack((s, g, np.unique(shapely.get_coordinates(safe), axis=0)))
+    i, j = np.triu_indices(len(pts), 1)
+    ok = shapely.covers(shapely.buffer(safe, TOL), shapely.linestrings(np.stack((pts[i], pts[j]), axis=1)))
+    w = np.hypot(*(pts[i] - pts[j]).T)
+    graph = csr_matrix((np.maximum(w[ok], 1e-300), (i[ok], j[ok])), shape=(len(pts), len(pts)))
+    return float(dijkstra(graph, directed=False, indices=0)[1])
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(holes=st.lists(st.tuples(st.floats(1, 9), st.floats(1, 5), st.floats(0.1, 1.5), st.floats(0.1, 1.5),
+                                st.floats(0, math.pi)), min_size=1, max_size=5),
+       radius=st.sampled_from([0.0, 0.15]), seed=st.integers(0, 2**16))
+def test_shortest_paths_are_as_short_as_the_full_visibility_graphs(holes, radius, seed):
+    # rotated rectangles, overlapping or touching the walls or each other at random
+    obstacles = [shapely.affinity.rotate(box(x - w, y - h, x + w, y + h), turn, use_radians=True)
+                 for x, y, w, h, turn in holes]
+    free = ROOM.difference(shapely.union_all(obstacles))
+    pl = plan_module.Planner(free, radius)
+    if pl.safe.is_empty:
+        return
+    rng = np.random.default_rng(seed)
+    for s, g in free_points(pl.safe, 6, rng).reshape(3, 2, 2):
+        try:
+            p = pl.plan(s, g)
+        except NoConnectionError:
+            assert pl.piece(s) != pl.piece(g)
+            continue
+        assert p.note is None
+        assert p.length == pytest.approx(brute_force_length(pl.safe, s, g), rel=1e-9, abs=1e-9)
+        assert_safe(p, free, radius)
+
+
 def test_safe_region_shrinks_by_the_radius_and_no_more_than_two_percent_more():
     free = ROOM.difference(box(4, 2, 6, 4))
     safe = safe_region(free, radius=0.5)
@@ -119,6 +159,21 @@ def test_safe_region_shrinks_by_the_radius_and_no_more_than_two_percent_more():
     pts = shapely.get_coordinates(shapely.segmentize(safe.boundary, 0.05))
     d = shapely.distance(shapely.points(pts), free.boundary)
     assert d.min() >= 0.5 - TOL and d.max() <= 0.5 * 1.021 + TOL
+
+
+@pytest.mark.parametrize("grid", [0.01, 0.1, 0.5])
+def test_a_region_with_a_precision_grid_is_shrunk_like_any_other(grid):
+    # shapely.set_precision leaves a fixed precision model on the geometry, and GEOS computes
+    # a buffer of it on that grid: the shrink came out too large (0.01), empty (0.1), or
+    # larger than the free space itself (0.5)
+    free = shapely.set_precision(ROOM.difference(shapely.Polygon([(4, 2), (6, 2.3), (5.2, 4.1)])), grid)
+    assert shapely.get_precision(free) == grid
+    floating = shapely.set_precision(free, 0)  # the same coordinates: what the checks measure in
+    safe = safe_region(free, radius=0.3)
+    assert safe.equals_exact(safe_region(floating, radius=0.3), 0)
+    assert shapely.covers(shapely.buffer(floating, -0.3 + TOL, quad_segs=64), safe)
+    p = plan(free, (1, 3), (9, 3), radius=0.3)
+    assert_safe(p, floating, 0.3)
 
 
 def test_radius_keeps_the_path_off_the_corners():
@@ -171,9 +226,96 @@ def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     # the wall is d = 0.2·sin 45° in at α = 0 (see above), the radius 2 % more (``_shrink``)
     d = 0.2 / math.sqrt(2)
     assert e.value.distance == pytest.approx(d + 0.3 * RADIUS_FACTOR - 0.4, abs=1e-6)
-    assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=0.01)  # the disc's edge 0.1 from the wall
+    # the safe region keeps 0.3·RADIUS_FACTOR off the wall, (1 − α)·d in at α: the point is free
+    # from the α at which that disc's edge, 0.4 − 0.3·RADIUS_FACTOR from the wall, leaves the band
+    # (the disc of the radius alone gave 1 − 0.1/d, 0.045 too low: not free there)
+    need = 1 - (0.4 - 0.3 * RADIUS_FACTOR) / d
+    assert e.value.alpha_needed == pytest.approx(need, abs=1e-3)
+    assert f"free from about α = {need:.3g} on with radius 0.3" in str(e.value)
+    planner(pillar_room, need + 1e-3, 0.3).piece((1, 0.4))
+    with pytest.raises(PointNotFreeError):
+        planner(pillar_room, need - 1e-3, 0.3).piece((1, 0.4))
     with pytest.raises(PointNotFreeError, match="no α frees it"):
         plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
+
+
+@pytest.mark.parametrize("dx", [0.0, 0.01, 0.03])
+def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
+    # a spike 0.2 wide and 3 long into the room: the sweep moves its tip 0.2 along the bisector,
+    # so the band about the tip is a wedge 2 cm wide where the disc crosses it, which 48 samples
+    # of the disc's edge missed (α = 0 given, 0.499 true for dx = 0.01)
+    room = ROOM.difference(shapely.Polygon([(4.9, -1), (5.1, -1), (5, 2)]))
+    fz = fuzzify(BRepMap.from_shapely(room), tme=0.2)
+    p = (5 + dx, 2.1 + 0.3 * RADIUS_FACTOR)  # free once the tip, 2 + 0.2·(1 − α), is down to 2.1
+    with pytest.raises(PointNotFreeError) as e:
+        plan(fz, p, (1, 3), radius=0.3)
+    need = e.value.alpha_needed
+    assert need == pytest.approx(0.5, abs=0.01 + 2 * dx)
+    planner(fz, min(need + 2e-3, 1), 0.3).piece(p)  # free where the error says
+    # and not much before: the buffer's chords round the tip up to 2 % of the radius nearer
+    # (``_shrink``), 0.03 in α here, so the planner frees it from between 0.47 and 0.5
+    with pytest.raises(PointNotFreeError):
+        planner(fz, need - 0.04, 0.3).piece(p)
+
+
+@pytest.mark.parametrize("mode", ["shortest", "clearance"])
+def test_the_nearest_free_point_an_error_suggests_is_free(mode):
+    # the nearest point of the safe region, computed in floats, lies as often 1e-16 outside it
+    # as inside: it was refused as "closer than the radius ... 1.5e-16 m away"
+    free = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
+    pl = plan_module.Planner(free, 0.3)
+    goal = shapely.affinity.rotate(shapely.Point(1, 1), 17, origin=(0, 0)).coords[0]
+    x0, y0, x1, y1 = free.bounds
+    tried = 0
+    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
+        try:
+            pl.piece(p)
+            continue
+        except PointNotFreeError as e:
+            nearest = np.asarray(e.nearest)
+        tried += 1
+        q = pl.plan(nearest, goal, mode)
+        assert q.path[0].tolist() == nearest.tolist() and q.path[-1].tolist() == list(goal)
+        assert_safe(q, free, 0.3)
+        assert pl.covers(q.path)
+    assert tried > 40
+
+
+def printed_nearest(error: PointNotFreeError) -> tuple[float, float]:
+    x, y = re.search(r"the nearest free point is \(([^,]+), ([^)]+)\)", str(error)).groups()
+    return float(x), float(y)
+
+
+def test_the_nearest_free_point_as_printed_is_free():
+    # printed to 4 significant digits the nearest point was rounded out of the safe region two
+    # times in three (Intel): here (7.60553, 8.27921) was printed "(7.606, 8.279)", 0.4 mm out
+    free = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
+    pl = plan_module.Planner(free, 0.3)
+    x0, y0, x1, y1 = free.bounds
+    tried = 0
+    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
+        try:
+            pl.piece(p)
+            continue
+        except PointNotFreeError as e:
+            shown, nearest, distance = printed_nearest(e), e.nearest, e.distance
+        tried += 1
+        pl.piece(shown)
+        assert math.dist(shown, nearest) < 1e-2 and math.dist(p, shown) < distance + 1e-2
+    assert tried > 40
+
+
+def test_a_point_on_an_edge_is_free():
+    free = ROOM.difference(shapely.Polygon([(4, 2), (6, 2.3), (5.2, 4.1)]))
+    a, b = np.array([4.0, 2.0]), np.array([6.0, 2.3])
+    into_the_obstacle = np.array([-0.3, 2.0]) / math.hypot(0.3, 2.0)
+    for t in np.linspace(0.01, 0.99, 37):
+        on_edge = a + t * (b - a)  # on the obstacle's edge, to within the last bit
+        p = plan(free, on_edge, (9, 1))
+        assert p.path[0].tolist() == on_edge.tolist()
+        assert_safe(p, free)
+        with pytest.raises(PointNotFreeError):  # but not a micrometre inside the obstacle
+            plan(free, on_edge + 1e-6 * into_the_obstacle, (9, 1))
 
 
 def test_disconnected_pieces_are_no_connection():
@@ -255,6 +397,16 @@ def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypat
     assert_safe(p, free)
     assert p.length >= 2 * math.sqrt(10) + 2
     assert "not the shortest" in p.note
+
+
+def test_free_points_refuses_a_region_with_no_area():
+    # the empty safe region (a radius that leaves nothing free) failed with NumPy's "Range exceeds
+    # valid bounds", and a region of no area, a line, drew forever
+    empty = plan_module.Planner(ROOM, 4).safe
+    for region in (empty, shapely.LineString([(0, 0), (1, 1)])):
+        with pytest.raises(ValueError, match="no area"):
+            free_points(region, 2, np.random.default_rng(0))
+    assert shapely.contains_xy(ROOM, *free_points(ROOM, 5, np.random.default_rng(0)).T).all()
 
 
 # ------------------------------------------------------------------- clearance mode
@@ -432,10 +584,32 @@ def test_real_map_refuses_points_that_are_not_free(real):
         with pytest.raises(PointNotFreeError) as e:
             plan(fz, p, inside)
         assert e.value.distance > 0 and e.value.which == "start"
+        planner(fz, 0.0).piece(printed_nearest(e.value))  # the point it names is free as printed
     holes = [shapely.Polygon(h.closed_coords()) for h in fz.crisp.regions[0].holes]
     hole = max(holes, key=lambda h: h.area)
     with pytest.raises(PointNotFreeError, match="obstacle|outside"):
         plan(fz, inside, shapely.get_coordinates(shapely.point_on_surface(hole))[0])
+
+
+@pytest.mark.reallog
+def test_real_map_the_alpha_an_error_names_frees_the_point(real):
+    name, _, fz, free = real
+    pl = planner(fz, 0.0, 0.2)
+    band = shapely.difference(fz.crisp_geometry, pl.safe)
+    checked = 0
+    for p in free_points(band, 40, np.random.default_rng(8)):
+        with pytest.raises(PointNotFreeError) as e:
+            pl.plan(p, p)
+        need = e.value.alpha_needed
+        if need is None or need > 0.94:
+            continue
+        plan_module.Planner.of(fz, need + 0.01, 0.2).piece(p)  # the disc of the radius alone: never
+        with pytest.raises(PointNotFreeError):  # nor long before (chords: ``_shrink``)
+            plan_module.Planner.of(fz, max(need - 0.05, 0), 0.2).piece(p)
+        checked += 1
+        if checked == 3:
+            break
+    assert checked == 3
 
 
 @pytest.mark.reallog

@@ -113,6 +113,12 @@ class Triangulation:
         out[pi[::-1]] = ti[::-1]  # the first triangle found wins
         return out
 
+    def near(self, point, distance: float) -> np.ndarray:
+        """Indices of the triangles within ``distance`` of ``point``, nearest first."""
+        pt = shapely.Point(np.asarray(point, dtype=np.float64).reshape(2))
+        t = self._tree.query(pt, predicate="dwithin", distance=distance)
+        return t[np.argsort(shapely.distance(self._tree.geometries[t], pt), kind="stable")]
+
     def channel(self, start, goal) -> np.ndarray | None:
         """A polyline from ``start`` to ``goal`` through the midpoints of the edges between the
         triangles of a shortest chain of adjacent triangles; None if no chain joins them.
