@@ -202,3 +202,15 @@ def test_fm_index_without_a_function_names_the_map_file(tmp_path, capsys):
     fails(capsys, ["memory", p], "m.json: ", "principal, vertex 2: FM index 9 has no membership function")  # before: no file
     with pytest.raises(MapFileError, match="m.json: principal, vertex 2: FM index 9"):
         FuzzyBRepMap.load(p)
+
+
+def test_figure_in_a_format_matplotlib_does_not_write_fails_before_the_work(tmp_path, capsys):
+    # before: matplotlib's traceback, after the whole build (or plan) was done
+    missing_log = tmp_path / "not-read.log"  # the picture's name is checked first: the log is never opened
+    fails(capsys, ["build", missing_log, "--out", tmp_path / "m.json", "--plot", tmp_path / "m.xyz"],
+          "m.xyz: cannot draw a figure as .xyz: give one of", ".png", ".svg")
+    p = tmp_path / "m.json"
+    square_map(p)
+    fails(capsys, ["plan", p, "--start", 1, 1, "--goal", 3, 3, "--plot", tmp_path / "path.xyz"],
+          "path.xyz: cannot draw a figure as .xyz")
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["m.json"]

@@ -93,6 +93,26 @@ def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray |
     _save(fig, path, dpi)
 
 
+def _format(path: str | os.PathLike) -> str:
+    return os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
+
+
+def check_figure_path(path: str | os.PathLike) -> None:
+    """MapFileError now if a figure cannot be saved at ``path``: a format matplotlib does not
+    write (named by the extension; none means PNG), or a place that cannot be written. Commands
+    check before their work, so that it is not lost to a typo in the picture's name."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from .errors import MapFileError
+    from .mapfile import check_writable
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if _format(path) not in formats:
+        raise MapFileError(path, f"cannot draw a figure as .{_format(path)}: give one of "
+                                 f"{', '.join('.' + f for f in sorted(formats))}")
+    check_writable(path)
+
+
 def _save(fig, path, dpi) -> None:
     """Lay the figure out, save it atomically (a half-written picture never replaces a good one)
     and close it (pyplot keeps every open figure alive)."""
@@ -105,8 +125,7 @@ def _save(fig, path, dpi) -> None:
     try:
         fig.tight_layout()
         buf = io.BytesIO()
-        ext = os.path.splitext(os.fspath(path))[1].lstrip(".").lower() or "png"
-        fig.savefig(buf, format=ext, dpi=dpi)
+        fig.savefig(buf, format=_format(path), dpi=dpi)
         write_atomic(path, buf.getvalue())
     finally:
         plt.close(fig)

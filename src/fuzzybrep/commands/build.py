@@ -65,14 +65,14 @@ def run(args) -> int:
     from ..build import build_map
     from ..mapfile import check_writable
     from ._maps import fuzzify_from_args
-    from ..plot import save_map_figure
+    from ..plot import check_figure_path, save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)
-    for out in (args.out, args.plot):  # before the work, not after it
-        if out:
-            check_writable(out)
+    check_writable(args.out)  # before the work, not after it
+    if args.plot:
+        check_figure_path(args.plot)
     t0 = time.perf_counter()
     scans, report = read_log(args)
     if args.consolidate:

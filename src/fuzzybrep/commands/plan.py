@@ -38,6 +38,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.plot:
+        from ..plot import check_figure_path
+
+        check_figure_path(args.plot)  # before the planning, not after it
     fuzzy = load_map(args)
     pl = planner(fuzzy, args.alpha, args.radius, args.method)
     result = pl.plan(args.start, args.goal, args.mode)
