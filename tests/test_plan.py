@@ -258,27 +258,34 @@ def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
         planner(fz, need - 0.04, 0.3).piece(p)
 
 
+TILTED = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
+
+
+def refused(pl: plan_module.Planner, free) -> list[tuple[np.ndarray, PointNotFreeError]]:
+    """Random points about ``free`` that ``pl`` refuses, with its errors."""
+    x0, y0, x1, y1 = free.bounds
+    out = []
+    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
+        try:
+            pl.piece(p)
+        except PointNotFreeError as e:
+            out.append((p, e))
+    assert len(out) > 40
+    return out
+
+
 @pytest.mark.parametrize("mode", ["shortest", "clearance"])
 def test_the_nearest_free_point_an_error_suggests_is_free(mode):
     # the nearest point of the safe region, computed in floats, lies as often 1e-16 outside it
     # as inside: it was refused as "closer than the radius ... 1.5e-16 m away"
-    free = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
-    pl = plan_module.Planner(free, 0.3)
+    pl = plan_module.Planner(TILTED, 0.3)
     goal = shapely.affinity.rotate(shapely.Point(1, 1), 17, origin=(0, 0)).coords[0]
-    x0, y0, x1, y1 = free.bounds
-    tried = 0
-    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
-        try:
-            pl.piece(p)
-            continue
-        except PointNotFreeError as e:
-            nearest = np.asarray(e.nearest)
-        tried += 1
+    for _, e in refused(pl, TILTED):
+        nearest = np.asarray(e.nearest)
         q = pl.plan(nearest, goal, mode)
         assert q.path[0].tolist() == nearest.tolist() and q.path[-1].tolist() == list(goal)
-        assert_safe(q, free, 0.3)
+        assert_safe(q, TILTED, 0.3)
         assert pl.covers(q.path)
-    assert tried > 40
 
 
 def printed_nearest(error: PointNotFreeError) -> tuple[float, float]:
@@ -289,20 +296,11 @@ def printed_nearest(error: PointNotFreeError) -> tuple[float, float]:
 def test_the_nearest_free_point_as_printed_is_free():
     # printed to 4 significant digits the nearest point was rounded out of the safe region two
     # times in three (Intel): here (7.60553, 8.27921) was printed "(7.606, 8.279)", 0.4 mm out
-    free = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
-    pl = plan_module.Planner(free, 0.3)
-    x0, y0, x1, y1 = free.bounds
-    tried = 0
-    for p in np.random.default_rng(0).uniform((x0 - 1, y0 - 1), (x1 + 1, y1 + 1), (80, 2)):
-        try:
-            pl.piece(p)
-            continue
-        except PointNotFreeError as e:
-            shown, nearest, distance = printed_nearest(e), e.nearest, e.distance
-        tried += 1
+    pl = plan_module.Planner(TILTED, 0.3)
+    for p, e in refused(pl, TILTED):
+        shown = printed_nearest(e)
         pl.piece(shown)
-        assert math.dist(shown, nearest) < 1e-2 and math.dist(p, shown) < distance + 1e-2
-    assert tried > 40
+        assert math.dist(shown, e.nearest) < 1e-2 and math.dist(p, shown) < e.distance + 1e-2
 
 
 def test_a_point_on_an_edge_is_free():
