@@ -358,22 +358,60 @@ def proper_polygon(crisp: np.ndarray, offset: np.ndarray, own: int, side: int, *
 
 
 def survivors(geom: shapely.Geometry, p: np.ndarray, tol: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Which vertices of ring p (n, 2), and which of its edges, lie on the boundary of geom."""
+    """Which vertices of ring p (n, 2), and which of its edges, lie on the boundary of geom.
+
+    A vertex survives within ``tol`` of the boundary. An edge survives where a stretch of it
+    longer than min(4·tol, half the edge) is boundary: the boundary segments that run along it
+    (both ends of the part beside the edge within ``tol`` of its line) are projected onto it and
+    their union measured. Merely touching the boundary does not count, however shallow the angle
+    (an edge leaving a surviving vertex at 8° to the boundary is within tol of it for 7·tol).
+    Boundary segments are paired with edges through an STRtree, so this is O(n log n) in the
+    sizes of ring and boundary.
+    """
     n = len(p)
     if tol is None:
         tol = 1e-9 * max(1.0, float(np.ptp(p, axis=0).max()))
     boundary = shapely.boundary(geom)
     if boundary is None or boundary.is_empty:
         return np.zeros(n, bool), np.zeros(n, bool)
+    # prepared boundary as the first argument: GEOS uses its index only there (else O(n) a test)
     shapely.prepare(boundary)
-    vkept = shapely.dwithin(shapely.points(p), boundary, tol)
-    segs = shapely.linestrings(np.stack((p, np.roll(p, -1, axis=0)), axis=1))
-    cand = shapely.dwithin(segs, boundary, tol)
+    vkept = shapely.dwithin(boundary, shapely.points(p), tol)
+    q = np.roll(p, -1, axis=0)
+    segs = shapely.linestrings(np.stack((p, q), axis=1))
+    cand = np.flatnonzero(shapely.dwithin(boundary, segs, tol))
     ekept = np.zeros(n, bool)
-    if cand.any():
-        strip = shapely.buffer(boundary, tol, quad_segs=1)
-        on = shapely.length(shapely.intersection(segs[cand], strip))
-        ekept[cand] = on > np.minimum(4 * tol, 0.5 * shapely.length(segs[cand]))
+    if not len(cand):
+        return vkept, ekept
+    xy, part = shapely.get_coordinates(shapely.get_parts(boundary), return_index=True)
+    link = part[1:] == part[:-1]
+    b0, b1 = xy[:-1][link], xy[1:][link]
+    tree = shapely.STRtree(shapely.linestrings(np.stack((b0, b1), axis=1)))
+    i, j = tree.query(segs[cand], predicate="dwithin", distance=tol)
+    e = cand[i]
+    a, d = p[e], q[e] - p[e]
+    length = np.hypot(d[:, 0], d[:, 1])
+    length = np.where(length > 0, length, np.nan)  # an edge collapsed to a point has no stretch
+    # where each boundary segment's ends project onto the edge (0 at p, 1 at q), and how far off
+    w0, w1 = b0[j] - a, b1[j] - a
+    l0, l1 = np.einsum("ij,ij->i", w0, d) / length**2, np.einsum("ij,ij->i", w1, d) / length**2
+    h0, h1 = _cross(d, w0) / length, _cross(d, w1) / length
+    lo, hi = np.clip(np.minimum(l0, l1), 0.0, 1.0), np.clip(np.maximum(l0, l1), 0.0, 1.0)
+    # offsets at the ends of the part beside the edge (linear along the boundary segment)
+    span = np.where(l1 != l0, l1 - l0, 1.0)
+    off_lo = np.abs(h0 + (lo - l0) / span * (h1 - h0))
+    off_hi = np.abs(h0 + (hi - l0) / span * (h1 - h0))
+    along = (hi > lo) & (off_lo <= tol) & (off_hi <= tol)  # False where NaN
+    e, lo, hi = e[along], lo[along], hi[along]
+    # length of the union of each edge's intervals: sorted by edge then start, an interval adds
+    # what reaches beyond the furthest end so far (edges kept apart by offsets of 2)
+    order = np.lexsort((lo, e))
+    e, lo, hi = e[order], lo[order] + 2.0 * e[order], hi[order] + 2.0 * e[order]
+    reach = np.maximum.accumulate(hi)
+    before = np.r_[-np.inf, reach[:-1]]
+    on = np.bincount(e, weights=np.maximum(0.0, hi - np.maximum(lo, before)), minlength=n)
+    edge_length = np.hypot(*(q - p).T)
+    ekept = on * edge_length > np.minimum(4 * tol, 0.5 * edge_length)
     return vkept, ekept
 
 
