@@ -121,6 +121,18 @@ def test_alpha_one_is_the_crisp_map():
         assert c.inner.equals(m.to_shapely()) and c.outer.equals(m.to_shapely())
 
 
+def test_alpha_within_rounding_of_one_is_the_crisp_map():
+    """At α = 1 − 2⁻⁵³ the offsets are 1e−16: the sweep moved the rings by an ulp, and GEOS then
+    took the band (outer − inner) for the whole map, though μ < α off the crisp boundary."""
+    tri = BRepMap((Region(Ring([(-0.5, 0.8660254), (-2, -3.4641016), (1, 0)])),))
+    fz = fuzzify(tri, tme=1.0)
+    for method in ("sweep", "exact"):
+        c = fz.alpha_cut(np.nextafter(1.0, 0.0), method)
+        assert c.inner.equals(tri.to_shapely()) and c.outer.equals(tri.to_shapely())
+        assert c.band.area == 0
+    assert fz.membership([[0.0, -0.5]])[0] < np.nextafter(1.0, 0.0)
+
+
 def test_square_alpha_cuts_match_the_bisector_construction():
     fz = fuzzify(square(10), tme=1.0)
     c = fz.alpha_cut(0.0)

@@ -136,6 +136,7 @@ class FuzzyBRepMap:
         V = np.vstack([ln.vertices for ln in self.lines])
         return {
             "V": V,
+            "size": float(np.ptp(V, axis=0).max()),  # extent of the map: what is within rounding
             "TV": np.vstack([np.column_stack((ln.T, ln.V)) for ln in self.lines]),
             "SI": np.concatenate([ln.support_in for ln in self.lines]),
             "fm": np.concatenate([r.fm for r in rings]),
@@ -227,6 +228,11 @@ class FuzzyBRepMap:
         s = self._stack
         d_in = self.table.d_in(s["fm"], alpha)
         d_out = self.table.d_out(s["fm"], alpha)
+        # an offset below 1e-12 of the map's size (α within rounding of 1) is no offset: a ring
+        # moved by an ulp or two made GEOS take outer − inner for the whole map (as _exact_side)
+        tiny = 1e-12 * s["size"]
+        d_in = np.where(d_in <= tiny, 0.0, d_in)
+        d_out = np.where(d_out <= tiny, 0.0, d_out)
         t_shrink = np.where(s["shell"], 1.0 - d_in / s["SI"], 1.0 + d_out / s["SI"])
         t_grow = np.where(s["shell"], 1.0 + d_out / s["SI"], 1.0 - d_in / s["SI"])
         # x = U + T·t, y = W + V·t, evaluated as X + T·(t − 1) so that t = 1 is the crisp vertex
