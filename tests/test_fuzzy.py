@@ -102,6 +102,30 @@ def test_tables_of_a_long_folding_ring_take_linear_time():
     assert np.isnan(t["XIN"]).any() and np.isfinite(t["XIN"]).any()  # the slow path was taken
 
 
+def test_fuzzify_takes_linear_time_with_many_obstacles_along_a_long_wall():
+    """A 100000-vertex wall round 12544 obstacles: checking each region with GEOS's is_valid
+    (every hole against the whole wall) took 9 s; holes apart and inside the shell are valid
+    and that is found through indexes, about half a second."""
+    import time
+
+    rng = np.random.default_rng(1)
+    n, g = 100000, 112
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    r = g * 3 * 0.75 + rng.uniform(-0.03, 0.03, n)
+    shell = Ring(np.column_stack((r * np.cos(angle), r * np.sin(angle))))
+    a = (np.arange(8) + rng.uniform(0, 0.8, (g * g, 8))) * 2 * np.pi / 8
+    rr = rng.uniform(0.2, 0.6, (g * g, 8))
+    c = (np.stack(np.meshgrid(np.arange(g), np.arange(g)), -1).reshape(-1, 2) - g / 2) * 1.8
+    holes = tuple(Ring(np.column_stack((cx + q * np.cos(t), cy + q * np.sin(t)))[::-1])
+                  for (cx, cy), t, q in zip(c, a, rr))
+    crisp = BRepMap((Region(shell, holes),))
+    t0 = time.perf_counter()
+    fuzzify(crisp, tme=0.2)
+    assert time.perf_counter() - t0 < 2.5
+    with pytest.raises(GeometryError, match="invalid region"):  # a hole across the wall is still found
+        fuzzify(BRepMap((Region(shell, holes + (Ring([(0, r[0] - 1), (0, r[0] + 1), (1, r[0])]),)),)), tme=0.2)
+
+
 def test_frontier_vertices_get_their_own_function():
     ring = Ring([(0, 0), (10, 0), (10, 10), (0, 10)], kinds=[OBSTACLE, FRONTIER, OBSTACLE, OBSTACLE])
     fz = fuzzify(BRepMap((Region(ring),)), tme=0.2, frontier_mf=Triangular(1.0))
