@@ -86,6 +86,46 @@ def test_tables_mark_deleted_vertices_null():
     assert e["EDGE_IN"][0] == 1
 
 
+def test_tables_of_a_long_folding_ring_take_linear_time():
+    """Which offset vertices and edges survive is found through an index: a 24000-vertex wall
+    whose bands fold everywhere (vertices 9 cm apart, ±3 cm of noise, TME 0.2) takes about a
+    second; testing every edge against the whole boundary took a minute."""
+    import time
+
+    n = 24000
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    r = n * 0.094 / (2 * np.pi) + np.random.default_rng(1).uniform(-0.03, 0.03, n)
+    fz = fuzzify(BRepMap((Region(Ring(np.column_stack((r * np.cos(angle), r * np.sin(angle))))),)), tme=0.2)
+    t0 = time.perf_counter()
+    t = fz.vertex_table(0)
+    assert time.perf_counter() - t0 < 15
+    assert np.isnan(t["XIN"]).any() and np.isfinite(t["XIN"]).any()  # the slow path was taken
+
+
+def test_fuzzify_takes_linear_time_with_many_obstacles_along_a_long_wall():
+    """A 100000-vertex wall round 12544 obstacles: checking each region with GEOS's is_valid
+    (every hole against the whole wall) took 9 s; holes apart and inside the shell are valid
+    and that is found through indexes, about half a second."""
+    import time
+
+    rng = np.random.default_rng(1)
+    n, g = 100000, 112
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    r = g * 3 * 0.75 + rng.uniform(-0.03, 0.03, n)
+    shell = Ring(np.column_stack((r * np.cos(angle), r * np.sin(angle))))
+    a = (np.arange(8) + rng.uniform(0, 0.8, (g * g, 8))) * 2 * np.pi / 8
+    rr = rng.uniform(0.2, 0.6, (g * g, 8))
+    c = (np.stack(np.meshgrid(np.arange(g), np.arange(g)), -1).reshape(-1, 2) - g / 2) * 1.8
+    holes = tuple(Ring(np.column_stack((cx + q * np.cos(t), cy + q * np.sin(t)))[::-1])
+                  for (cx, cy), t, q in zip(c, a, rr))
+    crisp = BRepMap((Region(shell, holes),))
+    t0 = time.perf_counter()
+    fuzzify(crisp, tme=0.2)
+    assert time.perf_counter() - t0 < 2.5
+    with pytest.raises(GeometryError, match="invalid region"):  # a hole across the wall is still found
+        fuzzify(BRepMap((Region(shell, holes + (Ring([(0, r[0] - 1), (0, r[0] + 1), (1, r[0])]),)),)), tme=0.2)
+
+
 def test_frontier_vertices_get_their_own_function():
     ring = Ring([(0, 0), (10, 0), (10, 10), (0, 10)], kinds=[OBSTACLE, FRONTIER, OBSTACLE, OBSTACLE])
     fz = fuzzify(BRepMap((Region(ring),)), tme=0.2, frontier_mf=Triangular(1.0))
@@ -103,6 +143,18 @@ def test_alpha_one_is_the_crisp_map():
     for method in ("sweep", "exact"):
         c = fz.alpha_cut(1.0, method)
         assert c.inner.equals(m.to_shapely()) and c.outer.equals(m.to_shapely())
+
+
+def test_alpha_within_rounding_of_one_is_the_crisp_map():
+    """At α = 1 − 2⁻⁵³ the offsets are 1e−16: the sweep moved the rings by an ulp, and GEOS then
+    took the band (outer − inner) for the whole map, though μ < α off the crisp boundary."""
+    tri = BRepMap((Region(Ring([(-0.5, 0.8660254), (-2, -3.4641016), (1, 0)])),))
+    fz = fuzzify(tri, tme=1.0)
+    for method in ("sweep", "exact"):
+        c = fz.alpha_cut(np.nextafter(1.0, 0.0), method)
+        assert c.inner.equals(tri.to_shapely()) and c.outer.equals(tri.to_shapely())
+        assert c.band.area == 0
+    assert fz.membership([[0.0, -0.5]])[0] < np.nextafter(1.0, 0.0)
 
 
 def test_square_alpha_cuts_match_the_bisector_construction():
@@ -231,6 +283,78 @@ def test_membership_with_mixed_functions_uses_each_vertex_function():
         clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
         inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
         assert np.array_equal((mu >= a)[clear], inb[clear])
+
+
+def test_exact_sides_of_an_asymmetric_function_are_those_of_each_boundarys_own_ring():
+    """x < 0 is IN of the boundary's own ring: a point inside an obstacle near the outer wall is
+    IN for that wall too, not OUT as the free space would have it."""
+    hole = [(0.5, 2), (0.5, 8), (3, 8), (3, 2)]
+    fz = fuzzify(square(10, [hole]), Triangular(tme_in=0.2, tme_out=2.0))
+    p = np.array([[1.0, 5.0]])  # 0.5 into the hole, 1.0 inside the principal ring
+    assert fz.membership(p, "exact") == pytest.approx([0.0])  # both walls beyond the IN support 0.2
+    assert fz.membership(p, "sweep") == pytest.approx([0.0])
+    assert not shapely.intersects_xy(fz.alpha_cut(0.2, "exact").outer, 1.0, 5.0)
+    # a piece of explored space in a hole: its points are inside that hole's ring
+    g = shapely.MultiPolygon([shapely.Polygon(shapely.box(0, 0, 10, 10).exterior, [shapely.box(3, 3, 7, 7).exterior]),
+                              shapely.box(4, 4, 6, 6)])
+    fz = fuzzify(BRepMap.from_shapely(g), Triangular(tme_in=0.5, tme_out=2.0))
+    q = np.array([[5.0, 5.5]])  # 0.5 inside the island's wall, 1.5 inside the hole's
+    assert fz.membership(q, "exact") == pytest.approx([0.0])
+    assert shapely.intersects_xy(fz.alpha_cut(0.1, "exact").inner, 5.0, 5.5)
+
+
+def test_exact_cut_with_asymmetric_functions_round_a_sharp_tip_is_valid():
+    """Cutting the bands by their rings must not leave the crisp edges on the band's boundary:
+    GEOS then took this map's support band for one not covering it (inner = the crisp map,
+    outer = two nested shells)."""
+    v = [(0.50540, 0.86289), (0.15074, 0.98857), (-1.95689, 0.41299), (-0.26159, -0.96518), (0.55577, -0.83134),
+         (0.76958, -0.63855), (0.92921, -0.36955), (7.1875, 0.0)]
+    ring = Ring(v, fm=[2, 1, 1, 1, 1, 2, 2, 1])
+    fz = fuzzify(BRepMap((Region(ring),)), {1: Triangular(tme_in=3.0, tme_out=1.6171875),
+                                            2: Triangular(tme_in=3.0, tme_out=2.25)})
+    cut = fz.alpha_cut(0.0, "exact")
+    assert cut.inner.is_empty  # nothing is farther than 3 inside
+    assert cut.outer.geom_type == "Polygon" and cut.outer.is_valid and cut.outer.covers(fz.crisp_geometry)
+
+
+def exact_mu_by_definition(fz, pts) -> np.ndarray:
+    """μ(p) = max over edges of μ_FM(x), x the distance to the edge, negative inside the edge's
+    own ring (an edge whose ends differ split at its middle), by brute force."""
+    mu = np.zeros(len(pts))
+    for ring in fz.crisp.rings:
+        v, fm = ring.vertices, ring.fm
+        inside = shapely.contains_xy(shapely.Polygon(v), pts[:, 0], pts[:, 1])
+        for i in range(len(v)):
+            j = (i + 1) % len(v)
+            mid = (v[i] + v[j]) / 2
+            halves = [(v[i], v[j], fm[i])] if fm[i] == fm[j] else [(v[i], mid, fm[i]), (mid, v[j], fm[j])]
+            for a, b, k in halves:
+                ab = b - a
+                t = np.clip((pts - a) @ ab / (ab @ ab), 0, 1)
+                d = np.hypot(*(pts - a - t[:, None] * ab).T)
+                mu = np.maximum(mu, fz.table[k].mu(np.where(inside, -d, d)))
+    return mu
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(m=crisp_maps(), tme=st.lists(st.floats(0.02, 3.0), min_size=3, max_size=3), seed=st.integers(0, 2**32 - 1),
+       alpha=st.floats(0, 1))
+def test_exact_membership_with_asymmetric_functions_is_its_definition(m, tme, seed, alpha):
+    rng = np.random.default_rng(seed)
+    table = {1: Triangular(tme_in=tme[0], tme_out=tme[1]), 2: Triangular(tme[2])}
+    fz = fuzzify(m.with_rings([Ring(r.vertices, r.kinds, rng.integers(1, 3, len(r))) for r in m.rings]), table)
+    pts = random_points(m.to_shapely(), rng)
+    mu = fz.membership(pts, "exact")
+    np.testing.assert_allclose(mu, exact_mu_by_definition(fz, pts), atol=1e-12)
+    cut = fz.alpha_cut(alpha, "exact")
+    for g in (cut.inner, cut.outer):
+        assert g.geom_type in ("Polygon", "MultiPolygon") and g.is_valid, shapely.is_valid_reason(g)
+    band = cut.band
+    clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-3 * max(tme) if not band.is_empty \
+        else np.ones(len(pts), bool)
+    inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
+    level = mu > 0 if alpha == 0 else mu >= alpha
+    assert np.array_equal(level[clear], inb[clear])
 
 
 def test_membership_input_checks():

@@ -109,6 +109,18 @@ def test_self_intersecting_offset_is_made_proper():
     assert pp.edge_kept[[0, 4]].all()
 
 
+def test_an_edge_that_only_touches_the_proper_polygon_does_not_survive():
+    """Table 4.3: an offset edge survives where a stretch of it is proper boundary. Here the
+    proper polygon is a triangle on inner edges 2 and 4; inner edge 1 ends at its surviving
+    corner VIN2 at 4° to the triangle's third side, and none of it is boundary."""
+    v = np.array([(10, 7), (2, 7), (2, 4), (0, 1)], float)
+    lines = parametric_lines(v, 3.0, 3.0)
+    pp = proper_polygon(v, lines.vin, +1, +1, kept=True)
+    assert pp.geometry.geom_type == "Polygon" and len(pp.geometry.exterior.coords) == 4
+    assert pp.vertex_kept.tolist() == [False, True, False, False]
+    assert pp.edge_kept.tolist() == [False, True, False, True]
+
+
 def test_offset_that_splits_gives_two_pieces():
     """Figure 4.9: the inner offset of two rooms joined by a narrow corridor splits."""
     room = dumbbell(0.5)

@@ -31,8 +31,8 @@ from .brep import BRepMap, Ring, frontier_fm, locate_vertex, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
-from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, normal_vertices_stacked,
-                    polygonal, proper_polygon)
+from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, nests,
+                    normal_vertices_stacked, polygonal, proper_polygon)
 
 SHELL = "shell"
 HOLE = "hole"
@@ -136,6 +136,7 @@ class FuzzyBRepMap:
         V = np.vstack([ln.vertices for ln in self.lines])
         return {
             "V": V,
+            "size": float(np.ptp(V, axis=0).max()),  # extent of the map: what is within rounding
             "TV": np.vstack([np.column_stack((ln.T, ln.V)) for ln in self.lines]),
             "SI": np.concatenate([ln.support_in for ln in self.lines]),
             "fm": np.concatenate([r.fm for r in rings]),
@@ -227,6 +228,11 @@ class FuzzyBRepMap:
         s = self._stack
         d_in = self.table.d_in(s["fm"], alpha)
         d_out = self.table.d_out(s["fm"], alpha)
+        # an offset below 1e-12 of the map's size (α within rounding of 1) is no offset: a ring
+        # moved by an ulp or two made GEOS take outer − inner for the whole map (as _exact_side)
+        tiny = 1e-12 * s["size"]
+        d_in = np.where(d_in <= tiny, 0.0, d_in)
+        d_out = np.where(d_out <= tiny, 0.0, d_out)
         t_shrink = np.where(s["shell"], 1.0 - d_in / s["SI"], 1.0 + d_out / s["SI"])
         t_grow = np.where(s["shell"], 1.0 + d_out / s["SI"], 1.0 - d_in / s["SI"])
         # x = U + T·t, y = W + V·t, evaluated as X + T·(t − 1) so that t = 1 is the crisp vertex
@@ -371,7 +377,8 @@ class FuzzyBRepMap:
 
         ``sweep``: read from the parametric lines and made proper (single normal vertex method).
         ``exact``: the Extension principle, i.e. the crisp map buffered by −d and +d (round joins,
-        ``quad_segs`` segments per quarter circle).
+        ``quad_segs`` segments per quarter circle); with an asymmetric function, minus and plus
+        the band each edge reaches d_in(α) into its own ring and d_out(α) out of it.
         α-cuts nest: α1 < α2 gives inner(α1) ⊆ inner(α2) and outer(α2) ⊆ outer(α1).
         """
         alpha = _check_alpha(alpha)
@@ -399,6 +406,7 @@ class FuzzyBRepMap:
         segs = np.concatenate((np.stack((a, b), 1)[same], np.stack((a, mid), 1)[~same], np.stack((mid, b), 1)[~same]))
         seg_fm = np.concatenate((fm[same], fm[~same], fm[nxt][~same]))
         seg_shell = np.concatenate((s["shell"][same], s["shell"][~same], s["shell"][~same]))
+        seg_ring = np.concatenate((s["ring_of"][same], s["ring_of"][~same], s["ring_of"][~same]))
         groups = []
         for k in np.unique(seg_fm):
             for shell in (True, False):
@@ -406,20 +414,60 @@ class FuzzyBRepMap:
                 if sel.any():
                     lines = shapely.linestrings(segs[sel])
                     groups.append({"fm": int(k), "shell": shell, "a": segs[sel][:, 0], "b": segs[sel][:, 1],
+                                   "ring": seg_ring[sel], "lines": lines,
                                    "multi": shapely.multilinestrings(lines), "tree": shapely.STRtree(lines)})
         return groups
 
     def _exact_cut(self, alpha: float, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
         crisp = self.crisp_geometry
-        shrink, grow = [], []
+        shrink, grow, sided = [], [], []
         for g in self._edge_groups:
             f = self.table[g["fm"]]
             d_in, d_out = float(f.d_in(alpha)), float(f.d_out(alpha))
+            if not f.symmetric:
+                sided.append((g, d_in, d_out))
+                continue
             # free space shrinks by the principal polygon's IN side and the holes' OUT side
             shrink.append((g, d_in if g["shell"] else d_out))
             grow.append((g, d_out if g["shell"] else d_in))
+        if sided:
+            return AlphaCut(alpha, "exact", *self._exact_sided(crisp, shrink, sided, quad_segs), self.unit)
         return AlphaCut(alpha, "exact", self._exact_side(crisp, shrink, -1, quad_segs),
                         self._exact_side(crisp, grow, +1, quad_segs), self.unit)
+
+    def _exact_sided(self, crisp, symmetric: list, sided: list, quad_segs: int) -> tuple:
+        """Inner and outer exact cuts when some function is asymmetric: crisp map minus and plus
+        the band {p : μ(p) ≥ α}, built ring by ring.
+
+        An edge's band reaches d_in(α) into the inside of its own ring and d_out(α) out of it.
+        That is not the free space's side everywhere: a point in a hole near the principal
+        polygon's wall is inside the principal ring (IN for that wall), a point of another piece
+        of explored space lying in a hole is inside that hole's ring. Buffering the crisp map by
+        −d and +d sides every boundary by the free space, so it is used only when every
+        function is symmetric (``_exact_side``).
+        """
+        x0, y0, x1, y1 = crisp.bounds
+        tiny = 1e-12 * max(x1 - x0, y1 - y0)  # as in _exact_side
+        parts = [shapely.buffer(g["multi"], d, quad_segs=quad_segs) for g, d in symmetric if d > tiny]
+        polys = self._ring_polygons
+        for g, d_in, d_out in sided:
+            d_in, d_out = (0.0 if d <= tiny else d for d in (d_in, d_out))
+            if d_in == d_out == 0.0:
+                continue
+            # both sides to the smaller distance, then the wider side on its own: cut by the ring,
+            # so that the crisp edges (where the cut runs) lie inside the band, never on its
+            # boundary (GEOS overlays of polygons sharing edges were seen to go wrong)
+            parts.append(shapely.buffer(g["multi"], min(d_in, d_out), quad_segs=quad_segs))
+            rings, idx = np.unique(g["ring"], return_inverse=True)
+            order = np.argsort(idx, kind="stable")
+            edges = shapely.multilinestrings(g["lines"][order], indices=idx[order])  # the group's edges of each ring
+            wide = shapely.buffer(edges, max(d_in, d_out), quad_segs=quad_segs)
+            cut = shapely.intersection if d_in > d_out else shapely.difference
+            parts.extend(cut(wide, polys[rings]))
+        if not parts:
+            return crisp, crisp
+        band = shapely.union_all(parts)
+        return clean(shapely.difference(crisp, band)), clean(shapely.union(crisp, band))
 
     @staticmethod
     def _exact_side(crisp, parts: list, sign: int, quad_segs: int) -> shapely.Geometry:
@@ -442,8 +490,9 @@ class FuzzyBRepMap:
     def membership(self, points, method: str = "sweep") -> np.ndarray:
         """μ of the fuzzy boundary at each of an (m, 2) array of points, vectorised.
 
-        ``exact``: the function of the signed distance to the crisp boundary (Extension
-        principle; the nearest edge of each function decides). ``sweep``: the fuzzy union (max,
+        ``exact``: the function of the signed distance to the crisp boundary, negative inside
+        the boundary's own ring (Extension principle; the nearest edge of each function on each
+        side decides). ``sweep``: the fuzzy union (max,
         thesis 2.1.3) over edges of the swept edge: in the band between an edge and its inner
         (or outer) support edge, μ is the α whose α-cut edge passes through the point. 1 on the
         crisp boundary, 0 beyond the support, within [0, 1] everywhere.
@@ -470,10 +519,29 @@ class FuzzyBRepMap:
             reach = max(f.support_in, f.support_out)  # beyond it μ = 0: look no further
             pi, si = g["tree"].query(shapely.box(x - reach, y - reach, x + reach, y + reach))
             dist = np.full(len(p), np.inf)
-            np.minimum.at(dist, pi, segment_distance(p[pi], g["a"][si], g["b"][si]))
-            # IN of a principal polygon is the free space; IN of a hole is the obstacle
+            pair = segment_distance(p[pi], g["a"][si], g["b"][si])
+            if not f.symmetric:
+                # x < 0 inside the edge's own ring, which is not always the free space's side of
+                # it (a point in a hole near the principal polygon's wall is inside the principal
+                # ring): nearest edge on each side, each through its own half of the function
+                own = shapely.intersects_xy(self._ring_polygons[g["ring"][si]], p[pi, 0], p[pi, 1])
+                d_in = np.full(len(p), np.inf)
+                np.minimum.at(d_in, pi[own], pair[own])
+                np.minimum.at(dist, pi[~own], pair[~own])
+                mu = np.maximum(mu, np.maximum(f.mu(-d_in), f.mu(dist)))
+                continue
+            np.minimum.at(dist, pi, pair)
+            # IN of a principal polygon is the free space; IN of a hole is the obstacle (for a
+            # symmetric function the side does not change μ)
             mu = np.maximum(mu, f.mu(np.where(inside == g["shell"], -dist, dist)))
         return mu
+
+    @cached_property
+    def _ring_polygons(self) -> np.ndarray:
+        """Every ring's own polygon (``crisp.rings`` order), prepared: what IN means for its edges."""
+        polys = np.array([shapely.Polygon(r.vertices) for r in self.crisp.rings], dtype=object)
+        shapely.prepare(polys)
+        return polys
 
     @cached_property
     def _bands(self) -> dict:
@@ -499,9 +567,8 @@ class FuzzyBRepMap:
         tree = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
         shell = np.concatenate((s["shell"], s["shell"]))
         region_of_ring = np.repeat(np.arange(len(self.crisp.regions)), [len(r.rings) for r in self.crisp.regions])
-        ring_polys = np.array([shapely.Polygon(r.vertices) for r in self.crisp.rings], dtype=object)
+        ring_polys = self._ring_polygons
         region_polys = np.array([r.to_shapely() for r in self.crisp.regions], dtype=object)
-        shapely.prepare(ring_polys)
         shapely.prepare(region_polys)
         return {"c0": c0, "c1": c1, "a0": a0, "a1": a1, "tree": tree, "side": side, "ring": ring,
                 "region": region_of_ring[ring], "shell": shell, "fm0": fm0, "fm1": fm1,
@@ -772,6 +839,10 @@ def validate_map(crisp: BRepMap) -> None:
     k = 0
     for region in crisp.regions:
         g = region.to_shapely()
+        # the rings are simple now: holes apart and inside the shell make a valid region
+        if nests(shapely.Polygon(region.shell.vertices), [shapely.Polygon(h.vertices) for h in region.holes]):
+            k += len(region.rings)
+            continue
         if not g.is_valid:
             reason = shapely.is_valid_reason(g)
             ring_name, vertex = locate_vertex([r.vertices for r in region.rings],
