@@ -23,6 +23,7 @@ from typing import Sequence
 import numpy as np
 import shapely
 
+from .errors import ScanValueError
 from .polygon import PolygonConfig, depth_continuous
 from .scans.scan import Scan
 
@@ -132,6 +133,13 @@ def holdout_split(scans: Sequence[Scan], k: int) -> tuple[list[Scan], list[Scan]
     return kept, held
 
 
+def ordinal(k: int) -> str:
+    """"second", "third", "4th", "21st": how every k-th scan is named in messages."""
+    if k in (2, 3):
+        return "second" if k == 2 else "third"
+    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
+
+
 @dataclass
 class Evaluation:
     """``fuzzybrep evaluate``: a map built without every K-th scan, judged on those scans."""
@@ -179,7 +187,8 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     """Build from all scans but every ``holdout``-th and score the held-out ones (see module doc).
 
     The band is the map's support at α = 0: the exact one (the Extension principle) and the
-    thesis's sweep approximation, both from the same fuzzy map.
+    thesis's sweep approximation, both from the same fuzzy map. ScanValueError, before any map
+    is built, if no held-out endpoint is left to score (every rate would be 0/0).
     """
     import time
 
@@ -191,16 +200,21 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     tme = config.tme if tme is None else tme
     t0 = time.perf_counter()
     kept, held = holdout_split(scans, holdout)
+    if not held:
+        raise ScanValueError(None, None, f"{len(scans)} scan(s): holding out every {ordinal(holdout)} leaves none to "
+                                         f"score" + (f"; give --holdout 2 to {len(scans)}" if len(scans) >= 2 else ""))
+    pts = endpoints(held, max_range)
+    if not len(pts):
+        raise ScanValueError(None, None, f"no held-out scan has a return within {max_range:g} m: nothing to score")
     crisp = build_map(kept, config).crisp
     fz = fuzzify(crisp, tme=tme)
-    pts = endpoints(held, max_range)
     scores = {}
     for method in ("exact", "sweep"):
         cut = fz.alpha_cut(0.0, method)
         scores[method] = score(pts, cut.inner, cut.outer)
     viol = scores["exact"].violated
-    on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean()) if len(pts) else float("nan")
-    unseen = float((viol & ~seen_near(pts, kept, tme)).mean()) if len(pts) else float("nan")
+    on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
+    unseen = float((viol & ~seen_near(pts, kept, tme)).mean())
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting

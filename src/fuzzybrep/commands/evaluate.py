@@ -28,23 +28,21 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..build import BuildConfig
-    from ..evaluate import endpoints, evaluate_log, holdout_split
+    from ..evaluate import evaluate_log, ordinal
     scans, _ = read_log(args)
-    # with nothing to score every rate is 0/0: say so rather than print "nan %" (or NaN in --json)
-    if len(scans) < args.holdout:
-        raise ScanValueError(args.log, None, f"{len(scans)} scan(s): holding out every {_ordinal(args.holdout)} "
-                                             f"leaves none to score" + (f"; give --holdout 2 to {len(scans)}"
-                                                                        if len(scans) >= 2 else ""))
-    if len(endpoints(holdout_split(scans, args.holdout)[1])) == 0:
-        raise ScanValueError(args.log, None, "no held-out scan has a return within 5 m: nothing to score")
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
     check_grid_size(args.log, scans, args.resolution, cfg.beams.max_usable)
-    e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
+    try:
+        e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
+    except ScanValueError as err:
+        if err.path is not None:
+            raise
+        raise ScanValueError(args.log, None, err.reason) from None  # nothing to score: name the log
     if args.json:
         print(json.dumps(e.as_dict(), indent=2))
         return 0
     pct = lambda x: f"{100 * x:.2f} %"  # noqa: E731
-    print(f"{args.log}: map from {e.scans_used} scans, {e.scans_held_out} held out (every {_ordinal(e.holdout)}), "
+    print(f"{args.log}: map from {e.scans_used} scans, {e.scans_held_out} held out (every {ordinal(e.holdout)}), "
           f"{e.exact.endpoints} held-out endpoints under 5 m")
     for name, s in (("exact band", e.exact), ("sweep band", e.sweep)):
         print(f"  {name}: explained {pct(s.explained)}, violations {pct(s.violations)}, beyond {pct(s.beyond)}")
@@ -57,8 +55,3 @@ def run(args) -> int:
           f"{e.grid_bytes} ({e.grid_bytes / e.map_bytes_compact:.1f}x the compact map)")
     return 0
 
-
-def _ordinal(k: int) -> str:
-    if k in (2, 3):
-        return "second" if k == 2 else "third"
-    return f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
