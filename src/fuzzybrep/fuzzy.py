@@ -136,7 +136,6 @@ class FuzzyBRepMap:
         V = np.vstack([ln.vertices for ln in self.lines])
         return {
             "V": V,
-            "size": float(np.ptp(V, axis=0).max()),  # extent of the map: what is within rounding
             "TV": np.vstack([np.column_stack((ln.T, ln.V)) for ln in self.lines]),
             "SI": np.concatenate([ln.support_in for ln in self.lines]),
             "fm": np.concatenate([r.fm for r in rings]),
@@ -228,11 +227,10 @@ class FuzzyBRepMap:
         s = self._stack
         d_in = self.table.d_in(s["fm"], alpha)
         d_out = self.table.d_out(s["fm"], alpha)
-        # an offset below 1e-12 of the map's size (α within rounding of 1) is no offset: a ring
-        # moved by an ulp or two made GEOS take outer − inner for the whole map (as _exact_side)
-        tiny = 1e-12 * s["size"]
-        d_in = np.where(d_in <= tiny, 0.0, d_in)
-        d_out = np.where(d_out <= tiny, 0.0, d_out)
+        # no offset within rounding: a ring moved by an ulp or two made GEOS take outer − inner
+        # for the whole map
+        d_in = np.where(d_in <= self._rounding, 0.0, d_in)
+        d_out = np.where(d_out <= self._rounding, 0.0, d_out)
         t_shrink = np.where(s["shell"], 1.0 - d_in / s["SI"], 1.0 + d_out / s["SI"])
         t_grow = np.where(s["shell"], 1.0 + d_out / s["SI"], 1.0 - d_in / s["SI"])
         # x = U + T·t, y = W + V·t, evaluated as X + T·(t − 1) so that t = 1 is the crisp vertex
@@ -423,7 +421,9 @@ class FuzzyBRepMap:
         shrink, grow, sided = [], [], []
         for g in self._edge_groups:
             f = self.table[g["fm"]]
-            d_in, d_out = float(f.d_in(alpha)), float(f.d_out(alpha))
+            # GEOS buffers at a distance near rounding (α → 1) can come back perturbed by more
+            # than the distance (precision-reduction fallback)
+            d_in, d_out = (0.0 if d <= self._rounding else d for d in (float(f.d_in(alpha)), float(f.d_out(alpha))))
             if not f.symmetric:
                 sided.append((g, d_in, d_out))
                 continue
@@ -446,12 +446,9 @@ class FuzzyBRepMap:
         −d and +d sides every boundary by the free space, so it is used only when every
         function is symmetric (``_exact_side``).
         """
-        x0, y0, x1, y1 = crisp.bounds
-        tiny = 1e-12 * max(x1 - x0, y1 - y0)  # as in _exact_side
-        parts = [shapely.buffer(g["multi"], d, quad_segs=quad_segs) for g, d in symmetric if d > tiny]
+        parts = [shapely.buffer(g["multi"], d, quad_segs=quad_segs) for g, d in symmetric if d > 0]
         polys = self._ring_polygons
         for g, d_in, d_out in sided:
-            d_in, d_out = (0.0 if d <= tiny else d for d in (d_in, d_out))
             if d_in == d_out == 0.0:
                 continue
             # both sides to the smaller distance, then the wider side on its own: cut by the ring,
@@ -471,11 +468,6 @@ class FuzzyBRepMap:
 
     @staticmethod
     def _exact_side(crisp, parts: list, sign: int, quad_segs: int) -> shapely.Geometry:
-        x0, y0, x1, y1 = crisp.bounds
-        # GEOS buffers at a distance near rounding (α → 1) can come back perturbed by more than
-        # the distance (precision-reduction fallback): below 1e-12 of the map's size, use the map
-        tiny = 1e-12 * max(x1 - x0, y1 - y0)
-        parts = [(g, 0.0 if d <= tiny else d) for g, d in parts]
         ds = {d for _, d in parts}
         if ds == {0.0}:
             return crisp
@@ -535,6 +527,11 @@ class FuzzyBRepMap:
             # symmetric function the side does not change μ)
             mu = np.maximum(mu, f.mu(np.where(inside == g["shell"], -dist, dist)))
         return mu
+
+    @cached_property
+    def _rounding(self) -> float:
+        """An α-cut offset up to this, 1e-12 of the map's size (α within rounding of 1), is none."""
+        return 1e-12 * float(np.ptp(self._stack["V"], axis=0).max())
 
     @cached_property
     def _ring_polygons(self) -> np.ndarray:
@@ -838,17 +835,15 @@ def validate_map(crisp: BRepMap) -> None:
         validate_ring(rings[k].vertices, names[k])
     k = 0
     for region in crisp.regions:
-        g = region.to_shapely()
+        region_names, k = names[k:k + len(region.rings)], k + len(region.rings)
         # the rings are simple now: holes apart and inside the shell make a valid region
         if nests(shapely.Polygon(region.shell.vertices), [shapely.Polygon(h.vertices) for h in region.holes]):
-            k += len(region.rings)
             continue
+        g = region.to_shapely()
         if not g.is_valid:
             reason = shapely.is_valid_reason(g)
-            ring_name, vertex = locate_vertex([r.vertices for r in region.rings],
-                                              names[k:k + len(region.rings)], reason)
-            raise GeometryError(f"invalid region: {reason}", ring=ring_name or names[k], vertex=vertex)
-        k += len(region.rings)
+            ring_name, vertex = locate_vertex([r.vertices for r in region.rings], region_names, reason)
+            raise GeometryError(f"invalid region: {reason}", ring=ring_name or region_names[0], vertex=vertex)
 
 
 # ---------------------------------------------------------------------------------------------
