@@ -389,9 +389,9 @@ def survivors(geom: shapely.Geometry, p: np.ndarray, tol: float | None = None) -
     tree = shapely.STRtree(shapely.linestrings(np.stack((b0, b1), axis=1)))
     i, j = tree.query(segs[cand], predicate="dwithin", distance=tol)
     e = cand[i]
+    edge_length = np.hypot(*(q - p).T)
     a, d = p[e], q[e] - p[e]
-    length = np.hypot(d[:, 0], d[:, 1])
-    length = np.where(length > 0, length, np.nan)  # an edge collapsed to a point has no stretch
+    length = np.where(edge_length[e] > 0, edge_length[e], np.nan)  # an edge collapsed to a point has no stretch
     # where each boundary segment's ends project onto the edge (0 at p, 1 at q), and how far off
     w0, w1 = b0[j] - a, b1[j] - a
     l0, l1 = np.einsum("ij,ij->i", w0, d) / length**2, np.einsum("ij,ij->i", w1, d) / length**2
@@ -410,7 +410,6 @@ def survivors(geom: shapely.Geometry, p: np.ndarray, tol: float | None = None) -
     reach = np.maximum.accumulate(hi)
     before = np.r_[-np.inf, reach[:-1]]
     on = np.bincount(e, weights=np.maximum(0.0, hi - np.maximum(lo, before)), minlength=n)
-    edge_length = np.hypot(*(q - p).T)
     ekept = on * edge_length > np.minimum(4 * tol, 0.5 * edge_length)
     return vkept, ekept
 
