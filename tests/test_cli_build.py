@@ -101,6 +101,7 @@ def test_evaluate_prints_scores(tmp_path, capsys):
     assert d["scans_used"] == 5 and d["scans_held_out"] == 5
     assert 0.9 <= d["exact"]["explained"] <= 1 and d["exact"]["violations"] <= 0.01
     assert 0 <= d["violations_unseen"] <= d["exact"]["violations"]
+    assert 0 <= d["violations_came_and_went"] <= d["exact"]["violations"]
     assert cli.main(["evaluate", str(log), "--holdout", "2"]) == 0
     text = capsys.readouterr().out
     assert "explained" in text and "no kept scan saw any return within TME" in text

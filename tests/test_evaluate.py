@@ -17,17 +17,43 @@ def test_seen_near_finds_returns_of_other_scans_only_within_the_distance():
     assert not E.seen_near(wall, [], 0.2).any()
 
 
+def test_seen_free_needs_a_beam_passing_beyond_the_point_before_or_after_its_time():
+    scans = [scan_of(room(6, 4), (3.0, 2.0, 0.0), n=181, t=t) for t in (0.0, 10.0)]
+    free = [s.ranges for s in scans]
+    pts = np.array([[5.0, 2.0],    # on a beam, 1 m short of the wall
+                    [5.9, 2.0],    # 0.1 in front of the wall: not passed by the margin
+                    [2.5, 2.0],    # behind the sensor (a 180° scan), though beams at ±90° reach further
+                    [5.0, 2.01]])  # 1 cm off the beam at 2 m: within half a beam spacing
+    before, after = E.seen_free(pts, np.full(4, 5.0), scans, free, margin=0.2)
+    assert before.tolist() == after.tolist() == [True, False, False, True]
+    before, after = E.seen_free(pts, np.full(4, 20.0), scans, free, margin=0.2)
+    assert before.tolist() == [True, False, False, True] and not after.any()
+    # a scan at the point's own time is neither before nor after it
+    before, after = E.seen_free(pts, np.full(4, 10.0), scans[1:], free[1:], margin=0.2)
+    assert not before.any() and not after.any()
+    # a beam shortened by the map (the spike filter, say) no longer sees beyond its free range
+    short = [np.minimum(f, 1.5) for f in free]
+    assert not E.seen_free(pts, np.full(4, 5.0), scans, short, margin=0.2)[0].any()
+    # a 360° scan of 1° beams from -179.5° to 179.5°: a point at -179.8° lies nearest the first beam
+    full = scan_of(room(6, 4), (3.0, 2.0, 0.0), n=360, fov=2 * np.pi * 359 / 360)
+    a = np.radians(-179.8)
+    p = np.array([[3.0 + np.cos(a), 2.0 + np.sin(a)]])
+    assert E.seen_free(p, np.array([1.0]), [full], [full.ranges], 0.2)[0].tolist() == [True]
+
+
 def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     empty = room(6, 4)
     person = shapely.box(2.8, 1.8, 3.2, 2.2)  # in the middle of the room
-    poses = [(1.0 + 0.5 * k, 1.0 + 0.2 * k, 0.4 * k) for k in range(8)]
-    # every second scan is held out: only those see the person
+    poses = [(1.0 + 0.5 * k, 1.0 + 0.2 * k, 0.4 * k) for k in range(9)]
+    # every second scan is held out: only those see the person; a kept scan comes before and after each
     scans = [scan_of(empty.difference(person) if k % 2 else empty, p, n=361, fov=2 * np.pi - 0.02, t=float(k))
              for k, p in enumerate(poses)]
     e = E.evaluate_log(scans, 2, BuildConfig())
     assert e.exact.violations > 0.01  # the person is in the free space the kept scans saw
     assert e.violations_unseen == e.exact.violations  # and no kept scan saw anything there
+    # kept scans before and after looked through where the person stood: they came and went
+    assert e.violations_came_and_went == e.exact.violations
     # the person standing there in every scan: the map has an obstacle, nothing is violated
     still = [scan_of(empty.difference(person), p, n=361, fov=2 * np.pi - 0.02, t=float(k)) for k, p in enumerate(poses)]
     e = E.evaluate_log(still, 2, BuildConfig())
-    assert e.exact.violations < 0.005 and e.violations_unseen == 0.0
+    assert e.exact.violations < 0.005 and e.violations_unseen == 0.0 and e.violations_came_and_went == 0.0

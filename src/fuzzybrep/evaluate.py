@@ -12,7 +12,10 @@ For a set of scans (the held-out ones, or all of them) every endpoint with a ret
 must predict scans it has not seen. Two diagnostics say what the violations are: those on small
 isolated objects (legs, people, poles, judged from the held-out scan alone), and those where no
 kept scan saw any return within TME, which no map of the kept scans could know (a person who
-passed by between two kept scans); the rest is what a better map could have avoided.
+passed by between two kept scans). A third says which violations the map is right about: those
+that came and went, where beams of kept scans passed more than TME beyond the endpoint both
+before and after the held-out scan saw something there. The rest is what a better map could
+have avoided.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import shapely
 
 from .errors import ScanValueError
 from .polygon import PolygonConfig, depth_continuous
+from .scans.filters import classify_all
 from .scans.scan import Scan
 
 
@@ -101,6 +105,53 @@ def seen_near(points: np.ndarray, scans: Sequence[Scan], distance: float) -> np.
     return cKDTree(seen).query(points, distance_upper_bound=distance)[0] <= distance
 
 
+def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free: Sequence[np.ndarray],
+              margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, (before, after): did a scan earlier / later than the point's time see it free?
+
+    A scan sees a point free when the point lies within half a beam spacing of one of its beams
+    and that beam's free range (``free``: per scan, as the map used it, e.g. after the spike
+    filter) reaches ``margin`` or more beyond it. Seen free both before and after, an endpoint
+    is something that came and went: a person walking by, a door that opened and closed.
+    """
+    before = np.zeros(len(points), bool)
+    after = np.zeros(len(points), bool)
+    if not len(points):
+        return before, after
+    groups: dict[bytes, list[int]] = {}  # scans with the same beams are looked at together
+    for k, s in enumerate(scans):
+        if len(s.bearings):
+            groups.setdefault(s.bearings.tobytes(), []).append(k)
+    chunk = max(1, 4_000_000 // len(points))  # scans at a time: bounded (scans × points) arrays
+    for idx in groups.values():
+        b = scans[idx[0]].bearings
+        n = len(b)
+        half = 0.5 * float(np.median(np.diff(b))) if n > 1 else 0.0
+        for lo in range(0, len(idx), chunk):
+            part = idx[lo : lo + chunk]
+            pose = np.stack([scans[k].pose for k in part])
+            f = np.stack([free[k] for k in part])
+            dx = points[None, :, 0] - pose[:, None, 0]
+            dy = points[None, :, 1] - pose[:, None, 1]
+            dist = np.hypot(dx, dy)
+            # only the (scan, point) pairs within reach of the scan's longest beam
+            si, pi = np.nonzero(dist + margin <= f.max(axis=1)[:, None])
+            dist = dist[si, pi]
+            # bearing of each point in its scan's frame, in [b0, b0 + 2π), and the nearest beam
+            rel = (np.arctan2(dy[si, pi], dx[si, pi]) - pose[si, 2] - b[0]) % (2 * np.pi) + b[0]
+            hi = np.minimum(np.searchsorted(b, rel), n - 1)
+            below = np.maximum(hi - 1, 0)
+            j = np.where(rel - b[below] < b[hi] - rel, below, hi)
+            off = np.abs(rel - b[j])
+            wrap = b[0] + 2 * np.pi - rel  # just below the first beam (a 360° scan: between last and first)
+            j, off = np.where(wrap < off, 0, j), np.minimum(off, wrap)
+            passed = (off <= half) & (f[si, j] >= dist + margin)
+            t = np.array([scans[k].timestamp for k in part])[si]
+            before[pi[passed & (t < times[pi])]] = True
+            after[pi[passed & (t > times[pi])]] = True
+    return before, after
+
+
 def score(points: np.ndarray, safe, outer) -> EndpointScore:
     """Classify points against the safe inner region and the outer polygon at α = 0."""
     shapely.prepare(safe)
@@ -152,6 +203,9 @@ class Evaluation:
     #: share of held-out endpoints: exact violations with no return of any kept scan within TME.
     #: No map of the kept scans could avoid these without inventing an obstacle nobody saw.
     violations_unseen: float
+    #: share of held-out endpoints: exact violations that came and went, seen free by kept scans
+    #: (beams passing more than TME beyond) both before and after: the map is right to call them free
+    violations_came_and_went: float
     sweep: EndpointScore  # against the thesis's sweep band
     free_iou: float  # crisp free space vs the occupancy grid's free cells
     map_bytes_compact: int
@@ -215,8 +269,12 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     viol = scores["exact"].violated
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
     unseen = float((viol & ~seen_near(pts, kept, tme)).mean())
+    times = np.concatenate([np.full(int((s.returns & (s.ranges < max_range)).sum()), s.timestamp) for s in held])
+    free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
+    before, after = seen_free(pts[viol], times[viol], kept, free, tme)
+    came_and_went = float((before & after).sum() / len(pts))
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
-    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, unseen, scores["sweep"], iou, compact_bytes(fz), thesis,
+    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, unseen, came_and_went, scores["sweep"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)

@@ -50,6 +50,8 @@ def run(args) -> int:
           f"isolated objects (< 0.5 m across, in front of both neighbours: legs, people, poles)")
     print(f"  {pct(e.violations_unseen)} of all endpoints are violations where no kept scan saw any return "
           f"within TME: no map of the kept scans could know them")
+    print(f"  {pct(e.violations_came_and_went)} of all endpoints are violations that came and went: beams of kept "
+          f"scans passed more than TME beyond them both before and after (people, doors)")
     print(f"  free-space IoU with the {e.resolution:g} grid: {e.free_iou:.3f}")
     print(f"  bytes: fuzzy map {e.map_bytes_compact} compact ({e.map_bytes_thesis} as Table 5.3 counts) vs grid "
           f"{e.grid_bytes} ({e.grid_bytes / e.map_bytes_compact:.1f}x the compact map)")
