@@ -397,6 +397,15 @@ def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypat
     assert "not the shortest" in p.note
 
 
+def test_the_largest_piece_of_an_empty_safe_region_is_a_plan_error(pillar_room):
+    # a radius wider than every corridor: NumPy's "attempt to get argmax of an empty sequence"
+    for pl in (planner(pillar_room, 0.0, 5.0), plan_module.Planner(shapely.Polygon())):
+        assert len(pl.pieces) == 0
+        with pytest.raises(PlanError, match=r"the safe region \(.*radius \d.*\) is empty"):
+            pl.largest_piece
+    assert planner(pillar_room, 0.0, 0.1).largest_piece.area > 40
+
+
 def test_free_points_refuses_a_region_with_no_area():
     # the empty safe region (a radius that leaves nothing free) failed with NumPy's "Range exceeds
     # valid bounds", and a region of no area, a line, drew forever

@@ -210,7 +210,12 @@ class Planner:
 
     @property
     def largest_piece(self) -> shapely.Polygon:
-        """The safe region's largest connected piece: any two points in it are joined by a path."""
+        """The safe region's largest connected piece: any two points in it are joined by a path.
+
+        PlanError if the safe region is empty (e.g. a radius wider than every corridor): an empty
+        Polygon would only move the failure on, to whatever then looks for points in it."""
+        if len(self.pieces) == 0:
+            raise PlanError(f"the safe region{self._where()} is empty: it has no largest piece")
         return self.pieces[np.argmax(shapely.area(self.pieces))]
 
     @property
