@@ -239,6 +239,32 @@ def test_refuses_a_point_the_radius_pushes_out(pillar_room):
         plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
 
 
+def test_a_point_in_the_margin_beyond_the_radius_is_not_said_to_be_closer_than_it(pillar_room):
+    # the safe region keeps radius × RADIUS_FACTOR (about 1.02 r) off the edge (``_shrink``): a
+    # point between r and that was refused as "closer than the radius r", which it is not
+    margin = f"within the radius 0.3 plus the planner's 2 % margin ({0.3 * RADIUS_FACTOR:.4g} in all) of"
+    with pytest.raises(PointNotFreeError) as e:
+        plan(ROOM.difference(box(4, 2, 6, 4)), (1, 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the edge of the free space" in str(e.value) and "closer than" not in str(e.value)
+    d = 0.2 / math.sqrt(2)  # the wall at α = 0 (see above)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, (1, d + 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the edge of the space free at α = 0; it is free from about α = " in str(e.value)
+    # 0.303 from the crisp wall: no α frees it (it said "free from about α = 1 on")
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, (1, 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the crisp boundary, so no α frees it" in str(e.value) and e.value.alpha_needed is None
+    with pytest.raises(PointNotFreeError):
+        planner(pillar_room, 1.0, 0.3).piece((1, 0.303))
+    # but by the pillar's corner GEOS's chords come nearer than the margin, and α = 1 frees
+    # points there: they are not said to be beyond every α
+    corner = (4 + 0.304 * math.cos(math.radians(217.5)), 2 + 0.304 * math.sin(math.radians(217.5)))
+    planner(pillar_room, 1.0, 0.3).piece(corner)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, corner, (1, 3), radius=0.3)
+    assert "no α frees it" not in str(e.value)
+
+
 @pytest.mark.parametrize("dx", [0.0, 0.01, 0.03])
 def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
     # a spike 0.2 wide and 3 long into the room: the sweep moves its tip 0.2 along the bisector,

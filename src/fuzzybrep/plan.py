@@ -486,25 +486,43 @@ class Planner:
         if fuzzy is None:
             if not in_free:
                 return "it lies outside the free space", None
-            return f"it is closer than the radius {r:g} to the edge of the free space", None
+            return self._too_close(pt, self._free_boundary, "the edge of the free space"), None
         crisp = fuzzy.crisp_geometry
         if not shapely.intersects(crisp, pt):
             shells = [shapely.Polygon(reg.shell.closed_coords()) for reg in fuzzy.crisp.regions]
             if any(s.intersects(pt) for s in shells):
                 return "it lies inside an obstacle (a hole of the map)", None
             return "it lies outside the map", None
-        if shapely.distance(pt, shapely.boundary(crisp)) < r:
-            return (f"it is closer than the radius {r:g} to the crisp boundary, so no α frees it "
+        edge = shapely.boundary(crisp)
+        near = float(shapely.distance(pt, edge))
+        if near < r or (near < r * RADIUS_FACTOR and not self._safe_in(crisp, p)):
+            return (f"{self._too_close(pt, edge, 'the crisp boundary')}, so no α frees it "
                     f"(α = 1 is the crisp map)"), None
         need = self._alpha_needed(fuzzy, p)
         if not in_free:
             mu = float(fuzzy.membership(p[None], self.method or "sweep")[0])
             why = (f"it lies in the fuzzy boundary's band at α = {self.alpha:g} (μ = {mu:.3g} there)")
         else:
-            why = f"it is closer than the radius {r:g} to the edge of the space free at α = {self.alpha:g}"
+            why = self._too_close(pt, self._free_boundary, f"the edge of the space free at α = {self.alpha:g}")
         if need is not None and need > (self.alpha or 0.0):
             why += f"; it is free from about α = {need:.3g} on" + (f" with radius {r:g}" if r > 0 else "")
         return why, need
+
+    def _too_close(self, pt: shapely.Point, edge: shapely.Geometry, name: str) -> str:
+        """Why a point of the free space is not safe: it is closer than the radius to ``edge``,
+        or, between the radius and radius × ``RADIUS_FACTOR`` from it, within the margin that the
+        safe region keeps (``_shrink``)."""
+        r = self.radius
+        if shapely.distance(pt, edge) < r:
+            return f"it is closer than the radius {r:g} to {name}"
+        return f"it is within the radius {r:g} plus the planner's 2 % margin ({r * RADIUS_FACTOR:.4g} in all) of {name}"
+
+    def _safe_in(self, free: shapely.Geometry, p: np.ndarray) -> bool:
+        """Whether ``p`` is in ``free`` shrunk as the safe region is (``_shrink``), worked out
+        near ``p`` only: the disc the shrink keeps clear about ``p`` is all that decides."""
+        d = self.radius * RADIUS_FACTOR
+        near = shapely.clip_by_rect(free, p[0] - 3 * d, p[1] - 3 * d, p[0] + 3 * d, p[1] + 3 * d)
+        return bool(shapely.intersects_xy(shapely.buffer(near, -d, quad_segs=QUAD_SEGS), p[0], p[1]))
 
     def _alpha_needed(self, fuzzy: FuzzyBRepMap, p: np.ndarray) -> float | None:
         """About the smallest α at which ``p`` is safe: the largest μ over the disc that the safe
