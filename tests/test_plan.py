@@ -540,6 +540,24 @@ def test_cli_text_and_clearance_mode(room_file, capsys):
     assert lines[1] == "1 3" and lines[-1] == "9 3"
 
 
+@pytest.mark.parametrize("mode", ["shortest", "clearance"])
+def test_cli_text_path_read_back_stays_in_the_safe_region_far_from_the_origin(tmp_path, capsys, mode):
+    # UTM-like coordinates: 6 significant digits were metres here, and the path read back
+    # crossed the pillar; now each point is printed to within an eighth of the tolerance
+    dx, dy = 5e5, 4e6
+    fz = fuzzify(BRepMap.from_shapely(shapely.affinity.translate(ROOM.difference(box(4, 2, 6, 4)), dx, dy)), tme=0.2)
+    fz.save(tmp_path / "utm.json")
+    s, g = (dx + 1.3, dy + 2.9), (dx + 8.7, dy + 3.1)
+    assert main(["plan", str(tmp_path / "utm.json"), "--start", *map(repr, s), "--goal", *map(repr, g),
+                 "--radius", "0.3", "--mode", mode]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    path = np.array([[float(v) for v in line.split()] for line in lines[1:]])
+    pl = planner(fz, 0.0, 0.3)
+    assert len(path) > 2 and pl.covers(path)
+    assert np.abs(path - pl.plan(s, g, mode).path).max() <= pl.tolerance / 16
+    assert lines[1] == "500001.3 4000002.9" and lines[-1] == "500008.7 4000003.1"
+
+
 def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
     assert main(["plan", str(room_file), "--start", "5", "3", "--goal", "9", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

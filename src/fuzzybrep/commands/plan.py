@@ -59,6 +59,19 @@ def run(args: argparse.Namespace) -> int:
               f"clearance {result.clearance:.3g} {u} (α = {args.alpha:g}, radius {args.radius:g}, {args.method})\n")
     if result.note:
         out.write(f"note: {result.note}\n")
+    # rounded to an eighth of the tolerance the path was checked with: read back, it is still
+    # inside (6 significant digits were 1 cm at 1000 m from the origin, metres at 500 000)
+    step = pl.tolerance / 8
     for x, y in result.path:
-        out.write(f"{x:.6g} {y:.6g}\n")
+        out.write(f"{_coordinate(x, step)} {_coordinate(y, step)}\n")
     return 0
+
+
+def _coordinate(v: float, step: float) -> str:
+    """``v`` with the fewest significant digits (17 at most: they read back exactly) that keep
+    it within ``step`` / 2; "-9.8", not "-9.800000000"."""
+    v = float(v) + 0.0  # no "-0"
+    if v == 0:
+        return "0"
+    digits = math.floor(math.log10(abs(v))) + 1 - math.floor(math.log10(step))
+    return f"{v:.{min(max(digits, 1), 17)}g}"
