@@ -366,6 +366,15 @@ def test_membership_input_checks():
         fz.membership([[0, 0], [np.nan, 1]])
 
 
+def test_membership_checks_the_method_of_no_points_too():
+    # an empty input returned zeros whatever the method, a misspelt one included
+    fz = fuzzify(square(), tme=0.1)
+    for points in (np.zeros((0, 2)), [[0.0, 0.0]]):
+        with pytest.raises(ValueError, match=r"method must be one of \('sweep', 'exact'\), got 'exakt'"):
+            fz.membership(points, "exakt")
+    assert fz.membership(np.zeros((0, 2)), "exact").shape == (0,)
+
+
 # -- approximation error -----------------------------------------------------------------------
 
 

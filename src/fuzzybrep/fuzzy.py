@@ -489,6 +489,8 @@ class FuzzyBRepMap:
         (or outer) support edge, μ is the α whose α-cut edge passes through the point. 1 on the
         crisp boundary, 0 beyond the support, within [0, 1] everywhere.
         """
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         p = np.asarray(points, dtype=np.float64)
         if p.ndim != 2 or p.shape[1] != 2:
             raise ValueError(f"points must be an (m, 2) array, got shape {p.shape}")
@@ -498,8 +500,6 @@ class FuzzyBRepMap:
             raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
         if method == "exact":
             return self._membership_exact(p)
-        if method != "sweep":
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         return self._membership_sweep(p)
 
     def _membership_exact(self, p: np.ndarray) -> np.ndarray:
