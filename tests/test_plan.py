@@ -379,6 +379,39 @@ def test_bad_arguments_are_value_errors():
         plan(U, (1, 1), (math.nan, 1))
 
 
+@pytest.mark.filterwarnings("error")
+def test_a_start_or_goal_too_far_out_to_compute_with_is_refused_clearly(pillar_room):
+    # a start at 1e300 was refused after an overflow warning, one at (−1e308, 1e308) with an
+    # AttributeError; a radius near the largest float made GEOS's buffer overflow (a warning)
+    for s in ((1e300, 1), (-1e308, 1e308), (1, -1e61)):
+        with pytest.raises(PointNotFreeError, match=r"far outside the map, beyond ±1e\+60 m") as e:
+            plan(pillar_room, s, (1, 1))
+        assert e.value.which == "start" and e.value.distance is None
+    with pytest.raises(PointNotFreeError, match="goal .* far outside"):
+        plan(pillar_room, (1, 1), (1e300, 1), mode="clearance")
+    with pytest.raises(PointNotFreeError, match="is empty"):
+        plan(pillar_room, (1, 1), (1, 2), radius=1.7e308)
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_map_too_large_to_compute_with_is_refused_clearly(pillar_room):
+    # one 1e80 across overflowed GEOS's triangulation (a warning, then a path, or a QhullError).
+    # (No ``pytest.raises(...) as e`` here: it would keep these maps, in the planners' cache, alive
+    # until the garbage collector runs, which test_planners_are_kept_with_their_map counts on.)
+    huge = fuzzify(BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), 1e79, 1e79,
+                                                               origin=(0, 0))), tme=2e78)
+    with pytest.raises(PlanError, match=r"coordinates reach 1e\+80 m: the planner works within ±1e\+60 m"):
+        plan(huge, (1e79, 1e79), (9e79, 5e79))
+    with pytest.raises(PlanError, match="coordinates reach"):
+        plan_module.Planner(huge.crisp_geometry)
+    # 1e50 across is still planned in
+    k = 1e49
+    big = fuzzify(BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), k, k,
+                                                              origin=(0, 0))), tme=0.2 * k)
+    assert plan(big, (k, 3 * k), (9 * k, 3 * k), mode="clearance").length > 8 * k
+    assert plan(big, (k, 3 * k), (9 * k, 3 * k)).length == pytest.approx(plan(pillar_room, (1, 3), (9, 3)).length * k)
+
+
 def test_a_crisp_map_is_planned_in_as_it_is():
     p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
     assert p.alpha is None and p.method is None
@@ -563,6 +596,13 @@ def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert err[0].startswith("fuzzybrep plan: error: start (5, 3) is not free: it lies inside an obstacle")
+
+
+def test_cli_a_start_too_far_out_is_one_line_with_no_warning(room_file, capsys):
+    assert main(["plan", str(room_file), "--start", "1e300", "1", "--goal", "9", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["fuzzybrep plan: error: start (1e+300, 1) is not free: it lies far outside the map, beyond "
+                   "±1e+60 m, too far for its distance to be measured"]
 
 
 # ------------------------------------------------------------------- real maps

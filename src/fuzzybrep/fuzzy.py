@@ -498,6 +498,11 @@ class FuzzyBRepMap:
             return np.zeros(0)
         if not np.isfinite(p).all():
             raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
+        if self._rounding > 1e48:  # 1e-12 of the map's size: the map is more than 1e60 across
+            # the sweep multiplies four coordinates together (``sweep.band_parameter``): from about
+            # 1e77 across that overflows and μ came out wrong, without a warning for most points
+            raise GeometryError(f"the map is {self._rounding * 1e12:.3g} {self.unit} across: μ is computed "
+                                f"for maps up to 1e+60 {self.unit} across, beyond which its arithmetic overflows")
         if method == "exact":
             return self._membership_exact(p)
         return self._membership_sweep(p)

@@ -45,6 +45,11 @@ RELATIVE_TOLERANCE = 1e-9
 #: (``Planner.piece``): with the move into the region (``Planner._into``) at most 5/16 of the
 #: tolerance, which the tolerance's buffer (one chord per quarter circle) covers everywhere
 ON_EDGE = 1 / 4
+#: maps, start and goal with coordinates beyond ± this are refused: GEOS's triangulation and μ
+#: (``sweep.band_parameter``) multiply four coordinates together, which passes the largest float
+#: (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the triangulation overflowed,
+#: Qhull failed and μ came out wrong), and distances to a point beyond 1e154 overflow
+LARGEST = 1e60
 #: clearance mode: boundary points for the medial axis, at most about this many
 _MEDIAL_SITES = 40_000
 #: clearance mode: how many nearest medial-axis nodes to try to step onto from start and goal,
@@ -95,12 +100,14 @@ def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geo
     distance more generous than circles (2 mm for a TME of 0.2 m).
     """
     if isinstance(source, FuzzyBRepMap):
+        _check_size(source.crisp_geometry, source.unit)
         if method == "exact":
             return source.alpha_cut(alpha, method, quad_segs=EXACT_CUT_QUAD_SEGS).inner
         return source.alpha_cut(alpha, method).inner
     if isinstance(source, BRepMap):
-        return source.to_shapely()
+        return _check_size(source.to_shapely(), source.unit)
     if isinstance(source, shapely.Geometry):
+        _check_size(source)
         return polygonal(shapely.make_valid(source) if not source.is_valid else source)
     raise TypeError(f"cannot plan in a {type(source).__name__}: give a FuzzyBRepMap, a BRepMap or a Shapely polygon")
 
@@ -114,6 +121,16 @@ def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "
     vertex method; ``exact`` the Extension principle's (the crisp map buffered).
     """
     return _shrink(free_space(source, alpha, method), _check_radius(radius))
+
+
+def _check_size(geom: shapely.Geometry, unit: str = "m") -> shapely.Geometry:
+    """``geom``, if its coordinates lie within ±``LARGEST``; else PlanError."""
+    if not geom.is_empty:
+        reach = float(np.abs(geom.bounds).max())
+        if reach > LARGEST:
+            raise PlanError(f"the map's coordinates reach {reach:.3g} {unit}: the planner works within "
+                            f"±{LARGEST:g} {unit}, beyond which its arithmetic overflows")
+    return geom
 
 
 def _check_radius(radius) -> float:
@@ -158,6 +175,9 @@ def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
     free = _floating(free)
     extent = _extent(free)
     if radius > 0:
+        if radius * RADIUS_FACTOR >= extent:
+            # nothing lies that far inside; and GEOS overflows on a radius near the largest float
+            return shapely.MultiPolygon()
         free = shapely.buffer(free, -radius * RADIUS_FACTOR, quad_segs=QUAD_SEGS)
     safe = polygonal(shapely.set_precision(polygonal(free), _grid(extent)))
     # keep the snapped coordinates but not GEOS's fixed precision model: with it, a later
@@ -188,7 +208,7 @@ class Planner:
         # weakly: a planner kept with its map (``planner``) must not keep the map alive
         self._fuzzy = None if fuzzy is None else weakref.ref(fuzzy)
         self.unit = fuzzy.unit if fuzzy is not None else unit
-        self.free = _floating(polygonal(free))
+        self.free = _floating(polygonal(_check_size(free, self.unit)))
         self.safe = _shrink(self.free, self.radius)
         self.pieces = shapely.get_parts(self.safe)
         shapely.prepare(self.safe)
@@ -272,6 +292,9 @@ class Planner:
         on it, and snapping the region's coordinates (``_shrink``) moves its edges by up to
         10⁻¹⁰ of the map's size: such a point is free as well."""
         p = _point(point, which)
+        if np.abs(p).max() > LARGEST:  # the map lies within ±LARGEST (``_check_size``)
+            raise PointNotFreeError(which, p, f"it lies far outside the map, beyond ±{LARGEST:g} {self.unit}, "
+                                              "too far for its distance to be measured")
         inside = np.flatnonzero(shapely.intersects_xy(self.pieces, p[0], p[1]))
         if len(inside) == 0:
             d = shapely.distance(self.pieces, shapely.Point(p))
