@@ -598,6 +598,22 @@ def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
     assert err[0].startswith("fuzzybrep plan: error: start (5, 3) is not free: it lies inside an obstacle")
 
 
+def test_cli_takes_negative_numbers_with_an_exponent(room_file, capsys):
+    # argparse took "-1e-3" for an option: "argument --goal: expected 2 arguments"
+    assert main(["plan", str(room_file), "--start", "1", "1", "--goal", "-1e-3", "3"]) == 2
+    assert capsys.readouterr().err.startswith("fuzzybrep plan: error: goal (-0.001, 3) is not free: it lies "
+                                              "outside the map")
+    assert main(["plan", str(room_file), "--start", "1", "1", "--goal", "9", "3", "--alpha", "1", "--radius",
+                 "1E-1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["radius"] == 0.1
+    with pytest.raises(SystemExit):
+        main(["plan", str(room_file), "--start", "1", "1", "--goal", "9", "3", "--radius", "-1e-3"])
+    assert "radius must be a finite number ≥ 0, got -1e-3" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["plan", str(room_file), "--start", "1", "1", "--goal", "-inf", "3"])
+    assert "-inf must be a finite number" in capsys.readouterr().err
+
+
 def test_cli_a_start_too_far_out_is_one_line_with_no_warning(room_file, capsys):
     assert main(["plan", str(room_file), "--start", "1e300", "1", "--goal", "9", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
