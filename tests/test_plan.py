@@ -412,6 +412,21 @@ def test_a_map_too_large_to_compute_with_is_refused_clearly(pillar_room):
     assert plan(big, (k, 3 * k), (9 * k, 3 * k)).length == pytest.approx(plan(pillar_room, (1, 3), (9, 3)).length * k)
 
 
+def test_bad_arguments_where_alpha_does_not_apply_are_value_errors_too():
+    # α = 5, −1 or NaN was ignored for a crisp map or a polygon (a bad method was not)
+    crisp = BRepMap.from_shapely(U)
+    for source in (crisp, U):
+        for alpha in (5, -1, math.nan, "x"):
+            with pytest.raises(ValueError, match="α must"):
+                plan(source, (1, 1), (9, 1), alpha=alpha)
+        with pytest.raises(ValueError, match="α must"):
+            plan_module.free_space(source, 2.0)
+        with pytest.raises(ValueError, match="method"):
+            plan_module.safe_region(source, 0.0, 0.1, "buffer")
+        assert plan(source, (1, 1), (9, 1), alpha=None).alpha is None
+        assert plan(source, (1, 1), (9, 1), alpha=0.7).length == pytest.approx(2 * math.hypot(1, 7) + 6)
+
+
 def test_a_crisp_map_is_planned_in_as_it_is():
     p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
     assert p.alpha is None and p.method is None

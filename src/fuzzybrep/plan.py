@@ -91,7 +91,7 @@ class Plan:
 
 def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geometry:
     """The space free at confidence α: a fuzzy map's inner α-cut; a crisp map or a Shapely
-    (Multi)Polygon as it is (α and method do not apply to them).
+    (Multi)Polygon as it is (α and method do not apply to them, but a bad one is refused).
 
     The exact α-cut is drawn with ``EXACT_CUT_QUAD_SEGS`` chords per quarter circle, not the 32 of
     ``FuzzyBRepMap.alpha_cut``: every chord's end is a reflex corner of the free space, and the
@@ -99,6 +99,7 @@ def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geo
     with 32, 14 000 and 4 s with 8). Its rounded corners are then up to 1.1 % of the α-cut's
     distance more generous than circles (2 mm for a TME of 0.2 m).
     """
+    _applies(source, alpha, method)
     if isinstance(source, FuzzyBRepMap):
         _check_size(source.crisp_geometry, source.unit)
         if method == "exact":
@@ -121,6 +122,18 @@ def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "
     vertex method; ``exact`` the Extension principle's (the crisp map buffered).
     """
     return _shrink(free_space(source, alpha, method), _check_radius(radius))
+
+
+def _applies(source, alpha, method: str) -> float | None:
+    """α checked, for a fuzzy map; None for a crisp map or a polygon, where α does not apply (nor
+    the method), though a bad α or method given for one is refused all the same."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if isinstance(source, FuzzyBRepMap):
+        return _check_alpha(alpha)
+    if alpha is not None:
+        _check_alpha(alpha)
+    return None
 
 
 def _check_size(geom: shapely.Geometry, unit: str = "m") -> shapely.Geometry:
@@ -220,10 +233,8 @@ class Planner:
     @classmethod
     def of(cls, source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep", **kw) -> "Planner":
         """A planner for a fuzzy map at α (or for a crisp map or polygon, where α does not apply)."""
-        if method not in METHODS:
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        alpha = _applies(source, alpha, method)
         fuzzy = source if isinstance(source, FuzzyBRepMap) else None
-        alpha = _check_alpha(alpha) if fuzzy is not None else None
         unit = source.unit if isinstance(source, (FuzzyBRepMap, BRepMap)) else kw.pop("unit", "m")
         return cls(free_space(source, alpha or 0.0, method), radius, alpha=alpha,
                    method=method if fuzzy is not None else None, fuzzy=fuzzy, unit=unit, **kw)
@@ -628,10 +639,8 @@ def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = "swee
     a new planner each time: keep it yourself."""
     if not isinstance(source, (FuzzyBRepMap, BRepMap)):
         return Planner.of(source, alpha, radius, method)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    a = _applies(source, alpha, method)
     fuzzy = source if isinstance(source, FuzzyBRepMap) else None
-    a = _check_alpha(alpha) if fuzzy is not None else None
     m = method if fuzzy is not None else None
     r = _check_radius(radius)
     cache = _PLANNERS.setdefault(source, {"free": {}, "planners": {}})
