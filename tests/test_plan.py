@@ -427,6 +427,17 @@ def test_bad_arguments_where_alpha_does_not_apply_are_value_errors_too():
         assert plan(source, (1, 1), (9, 1), alpha=0.7).length == pytest.approx(2 * math.hypot(1, 7) + 6)
 
 
+def test_a_planner_takes_a_region_and_covers_takes_points():
+    # AttributeError ('list' object has no attribute 'is_empty') and IndexError before
+    with pytest.raises(TypeError, match="Shapely"):
+        plan_module.Planner([(0, 0), (1, 0), (1, 1)])
+    pl = plan_module.Planner(U)
+    for path in ([], np.zeros((0, 2)), [1.0, 1.0], [[1, 1, 1]]):
+        with pytest.raises(ValueError, match=r"\(k, 2\)"):
+            pl.covers(path)
+    assert pl.covers([[1, 1]]) and not pl.covers([[1, 1], [9, 1]])
+
+
 def test_a_crisp_map_is_planned_in_as_it_is():
     p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
     assert p.alpha is None and p.method is None

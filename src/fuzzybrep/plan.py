@@ -221,6 +221,9 @@ class Planner:
         # weakly: a planner kept with its map (``planner``) must not keep the map alive
         self._fuzzy = None if fuzzy is None else weakref.ref(fuzzy)
         self.unit = fuzzy.unit if fuzzy is not None else unit
+        if not isinstance(free, shapely.Geometry):
+            raise TypeError(f"a Planner plans in a Shapely (Multi)Polygon, not a {type(free).__name__}: "
+                            "Planner.of takes maps")
         self.free = _floating(polygonal(_check_size(free, self.unit)))
         self.safe = _shrink(self.free, self.radius)
         self.pieces = shapely.get_parts(self.safe)
@@ -337,6 +340,8 @@ class Planner:
     def covers(self, path) -> bool:
         """Whether the polyline lies in the safe region (grown by ``tolerance`` for GEOS)."""
         path = np.asarray(path, dtype=np.float64)
+        if path.ndim != 2 or path.shape[1] != 2 or len(path) == 0:
+            raise ValueError(f"path must be a (k, 2) array of k ≥ 1 points, got shape {path.shape}")
         line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
         return bool(shapely.covers(self._covering, line))
 
