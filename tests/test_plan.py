@@ -491,6 +491,16 @@ def test_the_largest_piece_of_an_empty_safe_region_is_a_plan_error(pillar_room):
     assert planner(pillar_room, 0.0, 0.1).largest_piece.area > 40
 
 
+def test_the_graphs_of_an_empty_safe_region_are_a_plan_error():
+    # IndexError ("boolean index did not match indexed array") from visibility.py, where
+    # benchmarks/plan.py met it first at a radius wider than every corridor
+    pl = plan_module.Planner(ROOM, 4)
+    for graph, name in (("visibility", "visibility graph"), ("medial", "medial axis"),
+                        ("_axis_links", "visibility graph")):
+        with pytest.raises(PlanError, match=rf"the safe region \(radius 4\) is empty: it has no {name}"):
+            getattr(pl, graph)
+
+
 def test_free_points_refuses_a_region_with_no_area():
     # the empty safe region (a radius that leaves nothing free) failed with NumPy's "Range exceeds
     # valid bounds", and a region of no area, a line, drew forever

@@ -248,9 +248,12 @@ class Planner:
 
         PlanError if the safe region is empty (e.g. a radius wider than every corridor): an empty
         Polygon would only move the failure on, to whatever then looks for points in it."""
-        if len(self.pieces) == 0:
-            raise PlanError(f"the safe region{self._where()} is empty: it has no largest piece")
+        self._not_empty("largest piece")
         return self.pieces[np.argmax(shapely.area(self.pieces))]
+
+    def _not_empty(self, what: str) -> None:
+        if len(self.pieces) == 0:
+            raise PlanError(f"the safe region{self._where()} is empty: it has no {what}")
 
     @property
     def fuzzy(self) -> FuzzyBRepMap | None:
@@ -261,6 +264,8 @@ class Planner:
 
     @cached_property
     def visibility(self) -> VisibilityGraph:
+        """PlanError if the safe region is empty (as ``largest_piece``)."""
+        self._not_empty("visibility graph")
         return VisibilityGraph.of(self.safe)
 
     @cached_property
@@ -272,6 +277,8 @@ class Planner:
 
     @cached_property
     def medial(self) -> MedialAxis:
+        """PlanError if the safe region is empty (as ``largest_piece``)."""
+        self._not_empty("medial axis")
         return MedialAxis.of(self.safe, self.spacing)
 
     @cached_property
