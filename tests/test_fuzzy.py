@@ -366,6 +366,32 @@ def test_membership_input_checks():
         fz.membership([[0, 0], [np.nan, 1]])
 
 
+def test_membership_checks_the_method_of_no_points_too():
+    # an empty input returned zeros whatever the method, a misspelt one included
+    fz = fuzzify(square(), tme=0.1)
+    for points in (np.zeros((0, 2)), [[0.0, 0.0]]):
+        with pytest.raises(ValueError, match=r"method must be one of \('sweep', 'exact'\), got 'exakt'"):
+            fz.membership(points, "exakt")
+    assert fz.membership(np.zeros((0, 2)), "exact").shape == (0,)
+
+
+@pytest.mark.filterwarnings("error")
+def test_membership_of_a_map_too_large_to_compute_with_is_refused():
+    # the sweep multiplies four coordinates together: on a map 1e80 across μ came out wrong
+    # (0.998 off), mostly without a warning
+    pts = np.array([[5.0, 0.05], [4.97, 5.0], [5.0, 5.0], [12.0, 3.0], [10.02, 9.99]])
+    fz = fuzzify(square(), tme=0.1)
+    for k in (1e50, 1e80):
+        big = fuzzify(square(10 * k), tme=0.1 * k)
+        for method in ("sweep", "exact"):
+            if k < 1e60:
+                np.testing.assert_allclose(big.membership(pts * k, method), fz.membership(pts, method), atol=1e-9)
+                continue
+            with pytest.raises(GeometryError, match=r"1e\+81 m across: μ is computed for maps up to 1e\+60 m"):
+                big.membership(pts * k, method)
+    assert fz.membership([[1e300, -1e300], [1.7e308, 0.0]]).tolist() == [0, 0]  # far points are fine
+
+
 # -- approximation error -----------------------------------------------------------------------
 
 

@@ -239,6 +239,32 @@ def test_refuses_a_point_the_radius_pushes_out(pillar_room):
         plan(pillar_room, (1, 0.25), (1, 1), radius=0.3)
 
 
+def test_a_point_in_the_margin_beyond_the_radius_is_not_said_to_be_closer_than_it(pillar_room):
+    # the safe region keeps radius × RADIUS_FACTOR (about 1.02 r) off the edge (``_shrink``): a
+    # point between r and that was refused as "closer than the radius r", which it is not
+    margin = f"within the radius 0.3 plus the planner's 2 % margin ({0.3 * RADIUS_FACTOR:.4g} in all) of"
+    with pytest.raises(PointNotFreeError) as e:
+        plan(ROOM.difference(box(4, 2, 6, 4)), (1, 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the edge of the free space" in str(e.value) and "closer than" not in str(e.value)
+    d = 0.2 / math.sqrt(2)  # the wall at α = 0 (see above)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, (1, d + 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the edge of the space free at α = 0; it is free from about α = " in str(e.value)
+    # 0.303 from the crisp wall: no α frees it (it said "free from about α = 1 on")
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, (1, 0.303), (1, 3), radius=0.3)
+    assert f"{margin} the crisp boundary, so no α frees it" in str(e.value) and e.value.alpha_needed is None
+    with pytest.raises(PointNotFreeError):
+        planner(pillar_room, 1.0, 0.3).piece((1, 0.303))
+    # but by the pillar's corner GEOS's chords come nearer than the margin, and α = 1 frees
+    # points there: they are not said to be beyond every α
+    corner = (4 + 0.304 * math.cos(math.radians(217.5)), 2 + 0.304 * math.sin(math.radians(217.5)))
+    planner(pillar_room, 1.0, 0.3).piece(corner)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, corner, (1, 3), radius=0.3)
+    assert "no α frees it" not in str(e.value)
+
+
 @pytest.mark.parametrize("dx", [0.0, 0.01, 0.03])
 def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
     # a spike 0.2 wide and 3 long into the room: the sweep moves its tip 0.2 along the bisector,
@@ -353,6 +379,65 @@ def test_bad_arguments_are_value_errors():
         plan(U, (1, 1), (math.nan, 1))
 
 
+@pytest.mark.filterwarnings("error")
+def test_a_start_or_goal_too_far_out_to_compute_with_is_refused_clearly(pillar_room):
+    # a start at 1e300 was refused after an overflow warning, one at (−1e308, 1e308) with an
+    # AttributeError; a radius near the largest float made GEOS's buffer overflow (a warning)
+    for s in ((1e300, 1), (-1e308, 1e308), (1, -1e61)):
+        with pytest.raises(PointNotFreeError, match=r"far outside the map, beyond ±1e\+60 m") as e:
+            plan(pillar_room, s, (1, 1))
+        assert e.value.which == "start" and e.value.distance is None
+    with pytest.raises(PointNotFreeError, match="goal .* far outside"):
+        plan(pillar_room, (1, 1), (1e300, 1), mode="clearance")
+    with pytest.raises(PointNotFreeError, match="is empty"):
+        plan(pillar_room, (1, 1), (1, 2), radius=1.7e308)
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_map_too_large_to_compute_with_is_refused_clearly(pillar_room):
+    # one 1e80 across overflowed GEOS's triangulation (a warning, then a path, or a QhullError).
+    # (No ``pytest.raises(...) as e`` here: it would keep these maps, in the planners' cache, alive
+    # until the garbage collector runs, which test_planners_are_kept_with_their_map counts on.)
+    huge = fuzzify(BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), 1e79, 1e79,
+                                                               origin=(0, 0))), tme=2e78)
+    with pytest.raises(PlanError, match=r"coordinates reach 1e\+80 m: the planner works within ±1e\+60 m"):
+        plan(huge, (1e79, 1e79), (9e79, 5e79))
+    with pytest.raises(PlanError, match="coordinates reach"):
+        plan_module.Planner(huge.crisp_geometry)
+    # 1e50 across is still planned in
+    k = 1e49
+    big = fuzzify(BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), k, k,
+                                                              origin=(0, 0))), tme=0.2 * k)
+    assert plan(big, (k, 3 * k), (9 * k, 3 * k), mode="clearance").length > 8 * k
+    assert plan(big, (k, 3 * k), (9 * k, 3 * k)).length == pytest.approx(plan(pillar_room, (1, 3), (9, 3)).length * k)
+
+
+def test_bad_arguments_where_alpha_does_not_apply_are_value_errors_too():
+    # α = 5, −1 or NaN was ignored for a crisp map or a polygon (a bad method was not)
+    crisp = BRepMap.from_shapely(U)
+    for source in (crisp, U):
+        for alpha in (5, -1, math.nan, "x"):
+            with pytest.raises(ValueError, match="α must"):
+                plan(source, (1, 1), (9, 1), alpha=alpha)
+        with pytest.raises(ValueError, match="α must"):
+            plan_module.free_space(source, 2.0)
+        with pytest.raises(ValueError, match="method"):
+            plan_module.safe_region(source, 0.0, 0.1, "buffer")
+        assert plan(source, (1, 1), (9, 1), alpha=None).alpha is None
+        assert plan(source, (1, 1), (9, 1), alpha=0.7).length == pytest.approx(2 * math.hypot(1, 7) + 6)
+
+
+def test_a_planner_takes_a_region_and_covers_takes_points():
+    # AttributeError ('list' object has no attribute 'is_empty') and IndexError before
+    with pytest.raises(TypeError, match="Shapely"):
+        plan_module.Planner([(0, 0), (1, 0), (1, 1)])
+    pl = plan_module.Planner(U)
+    for path in ([], np.zeros((0, 2)), [1.0, 1.0], [[1, 1, 1]]):
+        with pytest.raises(ValueError, match=r"\(k, 2\)"):
+            pl.covers(path)
+    assert pl.covers([[1, 1]]) and not pl.covers([[1, 1], [9, 1]])
+
+
 def test_a_crisp_map_is_planned_in_as_it_is():
     p = plan(BRepMap.from_shapely(U), (1, 1), (9, 1))
     assert p.alpha is None and p.method is None
@@ -395,6 +480,25 @@ def test_when_the_graph_fails_a_path_through_the_triangles_is_returned(monkeypat
     assert_safe(p, free)
     assert p.length >= 2 * math.sqrt(10) + 2
     assert "not the shortest" in p.note
+
+
+def test_the_largest_piece_of_an_empty_safe_region_is_a_plan_error(pillar_room):
+    # a radius wider than every corridor: NumPy's "attempt to get argmax of an empty sequence"
+    for pl in (planner(pillar_room, 0.0, 5.0), plan_module.Planner(shapely.Polygon())):
+        assert len(pl.pieces) == 0
+        with pytest.raises(PlanError, match=r"the safe region \(.*radius \d.*\) is empty"):
+            pl.largest_piece
+    assert planner(pillar_room, 0.0, 0.1).largest_piece.area > 40
+
+
+def test_the_graphs_of_an_empty_safe_region_are_a_plan_error():
+    # IndexError ("boolean index did not match indexed array") from visibility.py, where
+    # benchmarks/plan.py met it first at a radius wider than every corridor
+    pl = plan_module.Planner(ROOM, 4)
+    for graph, name in (("visibility", "visibility graph"), ("medial", "medial axis"),
+                        ("_axis_links", "visibility graph")):
+        with pytest.raises(PlanError, match=rf"the safe region \(radius 4\) is empty: it has no {name}"):
+            getattr(pl, graph)
 
 
 def test_free_points_refuses_a_region_with_no_area():
@@ -505,11 +609,52 @@ def test_cli_text_and_clearance_mode(room_file, capsys):
     assert lines[1] == "1 3" and lines[-1] == "9 3"
 
 
+@pytest.mark.parametrize("mode", ["shortest", "clearance"])
+def test_cli_text_path_read_back_stays_in_the_safe_region_far_from_the_origin(tmp_path, capsys, mode):
+    # UTM-like coordinates: 6 significant digits were metres here, and the path read back
+    # crossed the pillar; now each point is printed to within an eighth of the tolerance
+    dx, dy = 5e5, 4e6
+    fz = fuzzify(BRepMap.from_shapely(shapely.affinity.translate(ROOM.difference(box(4, 2, 6, 4)), dx, dy)), tme=0.2)
+    fz.save(tmp_path / "utm.json")
+    s, g = (dx + 1.3, dy + 2.9), (dx + 8.7, dy + 3.1)
+    assert main(["plan", str(tmp_path / "utm.json"), "--start", *map(repr, s), "--goal", *map(repr, g),
+                 "--radius", "0.3", "--mode", mode]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    path = np.array([[float(v) for v in line.split()] for line in lines[1:]])
+    pl = planner(fz, 0.0, 0.3)
+    assert len(path) > 2 and pl.covers(path)
+    assert np.abs(path - pl.plan(s, g, mode).path).max() <= pl.tolerance / 16
+    assert lines[1] == "500001.3 4000002.9" and lines[-1] == "500008.7 4000003.1"
+
+
 def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
     assert main(["plan", str(room_file), "--start", "5", "3", "--goal", "9", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert err[0].startswith("fuzzybrep plan: error: start (5, 3) is not free: it lies inside an obstacle")
+
+
+def test_cli_takes_negative_numbers_with_an_exponent(room_file, capsys):
+    # argparse took "-1e-3" for an option: "argument --goal: expected 2 arguments"
+    assert main(["plan", str(room_file), "--start", "1", "1", "--goal", "-1e-3", "3"]) == 2
+    assert capsys.readouterr().err.startswith("fuzzybrep plan: error: goal (-0.001, 3) is not free: it lies "
+                                              "outside the map")
+    assert main(["plan", str(room_file), "--start", "1", "1", "--goal", "9", "3", "--alpha", "1", "--radius",
+                 "1E-1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["radius"] == 0.1
+    with pytest.raises(SystemExit):
+        main(["plan", str(room_file), "--start", "1", "1", "--goal", "9", "3", "--radius", "-1e-3"])
+    assert "radius must be a finite number ≥ 0, got -1e-3" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["plan", str(room_file), "--start", "1", "1", "--goal", "-inf", "3"])
+    assert "-inf must be a finite number" in capsys.readouterr().err
+
+
+def test_cli_a_start_too_far_out_is_one_line_with_no_warning(room_file, capsys):
+    assert main(["plan", str(room_file), "--start", "1e300", "1", "--goal", "9", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["fuzzybrep plan: error: start (1e+300, 1) is not free: it lies far outside the map, beyond "
+                   "±1e+60 m, too far for its distance to be measured"]
 
 
 # ------------------------------------------------------------------- real maps

@@ -489,6 +489,8 @@ class FuzzyBRepMap:
         (or outer) support edge, μ is the α whose α-cut edge passes through the point. 1 on the
         crisp boundary, 0 beyond the support, within [0, 1] everywhere.
         """
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         p = np.asarray(points, dtype=np.float64)
         if p.ndim != 2 or p.shape[1] != 2:
             raise ValueError(f"points must be an (m, 2) array, got shape {p.shape}")
@@ -496,10 +498,13 @@ class FuzzyBRepMap:
             return np.zeros(0)
         if not np.isfinite(p).all():
             raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
+        if self._rounding > 1e48:  # 1e-12 of the map's size: the map is more than 1e60 across
+            # the sweep multiplies four coordinates together (``sweep.band_parameter``): from about
+            # 1e77 across that overflows and μ came out wrong, without a warning for most points
+            raise GeometryError(f"the map is {self._rounding * 1e12:.3g} {self.unit} across: μ is computed "
+                                f"for maps up to 1e+60 {self.unit} across, beyond which its arithmetic overflows")
         if method == "exact":
             return self._membership_exact(p)
-        if method != "sweep":
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         return self._membership_sweep(p)
 
     def _membership_exact(self, p: np.ndarray) -> np.ndarray:

@@ -45,6 +45,11 @@ RELATIVE_TOLERANCE = 1e-9
 #: (``Planner.piece``): with the move into the region (``Planner._into``) at most 5/16 of the
 #: tolerance, which the tolerance's buffer (one chord per quarter circle) covers everywhere
 ON_EDGE = 1 / 4
+#: maps, start and goal with coordinates beyond ± this are refused: GEOS's triangulation and μ
+#: (``sweep.band_parameter``) multiply four coordinates together, which passes the largest float
+#: (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the triangulation overflowed,
+#: Qhull failed and μ came out wrong), and distances to a point beyond 1e154 overflow
+LARGEST = 1e60
 #: clearance mode: boundary points for the medial axis, at most about this many
 _MEDIAL_SITES = 40_000
 #: clearance mode: how many nearest medial-axis nodes to try to step onto from start and goal,
@@ -86,7 +91,7 @@ class Plan:
 
 def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geometry:
     """The space free at confidence α: a fuzzy map's inner α-cut; a crisp map or a Shapely
-    (Multi)Polygon as it is (α and method do not apply to them).
+    (Multi)Polygon as it is (α and method do not apply to them, but a bad one is refused).
 
     The exact α-cut is drawn with ``EXACT_CUT_QUAD_SEGS`` chords per quarter circle, not the 32 of
     ``FuzzyBRepMap.alpha_cut``: every chord's end is a reflex corner of the free space, and the
@@ -94,13 +99,16 @@ def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geo
     with 32, 14 000 and 4 s with 8). Its rounded corners are then up to 1.1 % of the α-cut's
     distance more generous than circles (2 mm for a TME of 0.2 m).
     """
+    _applies(source, alpha, method)
     if isinstance(source, FuzzyBRepMap):
+        _check_size(source.crisp_geometry, source.unit)
         if method == "exact":
             return source.alpha_cut(alpha, method, quad_segs=EXACT_CUT_QUAD_SEGS).inner
         return source.alpha_cut(alpha, method).inner
     if isinstance(source, BRepMap):
-        return source.to_shapely()
+        return _check_size(source.to_shapely(), source.unit)
     if isinstance(source, shapely.Geometry):
+        _check_size(source)
         return polygonal(shapely.make_valid(source) if not source.is_valid else source)
     raise TypeError(f"cannot plan in a {type(source).__name__}: give a FuzzyBRepMap, a BRepMap or a Shapely polygon")
 
@@ -114,6 +122,28 @@ def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "
     vertex method; ``exact`` the Extension principle's (the crisp map buffered).
     """
     return _shrink(free_space(source, alpha, method), _check_radius(radius))
+
+
+def _applies(source, alpha, method: str) -> float | None:
+    """α checked, for a fuzzy map; None for a crisp map or a polygon, where α does not apply (nor
+    the method), though a bad α or method given for one is refused all the same."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if isinstance(source, FuzzyBRepMap):
+        return _check_alpha(alpha)
+    if alpha is not None:
+        _check_alpha(alpha)
+    return None
+
+
+def _check_size(geom: shapely.Geometry, unit: str = "m") -> shapely.Geometry:
+    """``geom``, if its coordinates lie within ±``LARGEST``; else PlanError."""
+    if not geom.is_empty:
+        reach = float(np.abs(geom.bounds).max())
+        if reach > LARGEST:
+            raise PlanError(f"the map's coordinates reach {reach:.3g} {unit}: the planner works within "
+                            f"±{LARGEST:g} {unit}, beyond which its arithmetic overflows")
+    return geom
 
 
 def _check_radius(radius) -> float:
@@ -158,6 +188,9 @@ def _shrink(free: shapely.Geometry, radius: float) -> shapely.Geometry:
     free = _floating(free)
     extent = _extent(free)
     if radius > 0:
+        if radius * RADIUS_FACTOR >= extent:
+            # nothing lies that far inside; and GEOS overflows on a radius near the largest float
+            return shapely.MultiPolygon()
         free = shapely.buffer(free, -radius * RADIUS_FACTOR, quad_segs=QUAD_SEGS)
     safe = polygonal(shapely.set_precision(polygonal(free), _grid(extent)))
     # keep the snapped coordinates but not GEOS's fixed precision model: with it, a later
@@ -188,7 +221,10 @@ class Planner:
         # weakly: a planner kept with its map (``planner``) must not keep the map alive
         self._fuzzy = None if fuzzy is None else weakref.ref(fuzzy)
         self.unit = fuzzy.unit if fuzzy is not None else unit
-        self.free = _floating(polygonal(free))
+        if not isinstance(free, shapely.Geometry):
+            raise TypeError(f"a Planner plans in a Shapely (Multi)Polygon, not a {type(free).__name__}: "
+                            "Planner.of takes maps")
+        self.free = _floating(polygonal(_check_size(free, self.unit)))
         self.safe = _shrink(self.free, self.radius)
         self.pieces = shapely.get_parts(self.safe)
         shapely.prepare(self.safe)
@@ -200,18 +236,24 @@ class Planner:
     @classmethod
     def of(cls, source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep", **kw) -> "Planner":
         """A planner for a fuzzy map at α (or for a crisp map or polygon, where α does not apply)."""
-        if method not in METHODS:
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        alpha = _applies(source, alpha, method)
         fuzzy = source if isinstance(source, FuzzyBRepMap) else None
-        alpha = _check_alpha(alpha) if fuzzy is not None else None
         unit = source.unit if isinstance(source, (FuzzyBRepMap, BRepMap)) else kw.pop("unit", "m")
         return cls(free_space(source, alpha or 0.0, method), radius, alpha=alpha,
                    method=method if fuzzy is not None else None, fuzzy=fuzzy, unit=unit, **kw)
 
     @property
     def largest_piece(self) -> shapely.Polygon:
-        """The safe region's largest connected piece: any two points in it are joined by a path."""
+        """The safe region's largest connected piece: any two points in it are joined by a path.
+
+        PlanError if the safe region is empty (e.g. a radius wider than every corridor): an empty
+        Polygon would only move the failure on, to whatever then looks for points in it."""
+        self._not_empty("largest piece")
         return self.pieces[np.argmax(shapely.area(self.pieces))]
+
+    def _not_empty(self, what: str) -> None:
+        if len(self.pieces) == 0:
+            raise PlanError(f"the safe region{self._where()} is empty: it has no {what}")
 
     @property
     def fuzzy(self) -> FuzzyBRepMap | None:
@@ -222,6 +264,8 @@ class Planner:
 
     @cached_property
     def visibility(self) -> VisibilityGraph:
+        """PlanError if the safe region is empty (as ``largest_piece``)."""
+        self._not_empty("visibility graph")
         return VisibilityGraph.of(self.safe)
 
     @cached_property
@@ -233,6 +277,8 @@ class Planner:
 
     @cached_property
     def medial(self) -> MedialAxis:
+        """PlanError if the safe region is empty (as ``largest_piece``)."""
+        self._not_empty("medial axis")
         return MedialAxis.of(self.safe, self.spacing)
 
     @cached_property
@@ -267,6 +313,9 @@ class Planner:
         on it, and snapping the region's coordinates (``_shrink``) moves its edges by up to
         10⁻¹⁰ of the map's size: such a point is free as well."""
         p = _point(point, which)
+        if np.abs(p).max() > LARGEST:  # the map lies within ±LARGEST (``_check_size``)
+            raise PointNotFreeError(which, p, f"it lies far outside the map, beyond ±{LARGEST:g} {self.unit}, "
+                                              "too far for its distance to be measured")
         inside = np.flatnonzero(shapely.intersects_xy(self.pieces, p[0], p[1]))
         if len(inside) == 0:
             d = shapely.distance(self.pieces, shapely.Point(p))
@@ -298,6 +347,8 @@ class Planner:
     def covers(self, path) -> bool:
         """Whether the polyline lies in the safe region (grown by ``tolerance`` for GEOS)."""
         path = np.asarray(path, dtype=np.float64)
+        if path.ndim != 2 or path.shape[1] != 2 or len(path) == 0:
+            raise ValueError(f"path must be a (k, 2) array of k ≥ 1 points, got shape {path.shape}")
         line = shapely.linestrings(path) if len(path) > 1 else shapely.points(path[0])
         return bool(shapely.covers(self._covering, line))
 
@@ -481,25 +532,43 @@ class Planner:
         if fuzzy is None:
             if not in_free:
                 return "it lies outside the free space", None
-            return f"it is closer than the radius {r:g} to the edge of the free space", None
+            return self._too_close(pt, self._free_boundary, "the edge of the free space"), None
         crisp = fuzzy.crisp_geometry
         if not shapely.intersects(crisp, pt):
             shells = [shapely.Polygon(reg.shell.closed_coords()) for reg in fuzzy.crisp.regions]
             if any(s.intersects(pt) for s in shells):
                 return "it lies inside an obstacle (a hole of the map)", None
             return "it lies outside the map", None
-        if shapely.distance(pt, shapely.boundary(crisp)) < r:
-            return (f"it is closer than the radius {r:g} to the crisp boundary, so no α frees it "
+        edge = shapely.boundary(crisp)
+        near = float(shapely.distance(pt, edge))
+        if near < r or (near < r * RADIUS_FACTOR and not self._safe_in(crisp, p)):
+            return (f"{self._too_close(pt, edge, 'the crisp boundary')}, so no α frees it "
                     f"(α = 1 is the crisp map)"), None
         need = self._alpha_needed(fuzzy, p)
         if not in_free:
             mu = float(fuzzy.membership(p[None], self.method or "sweep")[0])
             why = (f"it lies in the fuzzy boundary's band at α = {self.alpha:g} (μ = {mu:.3g} there)")
         else:
-            why = f"it is closer than the radius {r:g} to the edge of the space free at α = {self.alpha:g}"
+            why = self._too_close(pt, self._free_boundary, f"the edge of the space free at α = {self.alpha:g}")
         if need is not None and need > (self.alpha or 0.0):
             why += f"; it is free from about α = {need:.3g} on" + (f" with radius {r:g}" if r > 0 else "")
         return why, need
+
+    def _too_close(self, pt: shapely.Point, edge: shapely.Geometry, name: str) -> str:
+        """Why a point of the free space is not safe: it is closer than the radius to ``edge``,
+        or, between the radius and radius × ``RADIUS_FACTOR`` from it, within the margin that the
+        safe region keeps (``_shrink``)."""
+        r = self.radius
+        if shapely.distance(pt, edge) < r:
+            return f"it is closer than the radius {r:g} to {name}"
+        return f"it is within the radius {r:g} plus the planner's 2 % margin ({r * RADIUS_FACTOR:.4g} in all) of {name}"
+
+    def _safe_in(self, free: shapely.Geometry, p: np.ndarray) -> bool:
+        """Whether ``p`` is in ``free`` shrunk as the safe region is (``_shrink``), worked out
+        near ``p`` only: the disc the shrink keeps clear about ``p`` is all that decides."""
+        d = self.radius * RADIUS_FACTOR
+        near = shapely.clip_by_rect(free, p[0] - 3 * d, p[1] - 3 * d, p[0] + 3 * d, p[1] + 3 * d)
+        return bool(shapely.intersects_xy(shapely.buffer(near, -d, quad_segs=QUAD_SEGS), p[0], p[1]))
 
     def _alpha_needed(self, fuzzy: FuzzyBRepMap, p: np.ndarray) -> float | None:
         """About the smallest α at which ``p`` is safe: the largest μ over the disc that the safe
@@ -582,10 +651,8 @@ def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = "swee
     a new planner each time: keep it yourself."""
     if not isinstance(source, (FuzzyBRepMap, BRepMap)):
         return Planner.of(source, alpha, radius, method)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    a = _applies(source, alpha, method)
     fuzzy = source if isinstance(source, FuzzyBRepMap) else None
-    a = _check_alpha(alpha) if fuzzy is not None else None
     m = method if fuzzy is not None else None
     r = _check_radius(radius)
     cache = _PLANNERS.setdefault(source, {"free": {}, "planners": {}})
