@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 
 from .errors import FuzzyBrepError
@@ -31,12 +32,18 @@ COMMANDS = [
 ]
 
 
+#: what argparse takes for a negative number rather than an option: its own pattern misses
+#: exponents and infinities (Python < 3.13), so "--goal -1e3 5" was "expected 2 arguments"
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="fuzzybrep", description="Fuzzy boundary-representation maps from 2-D laser scans.")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         mod = importlib.import_module(f".commands.{name}", __package__)
         sp = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        sp._negative_number_matcher = _NEGATIVE_NUMBER  # no option of any command looks like a number
         mod.add_arguments(sp)
         sp.set_defaults(_run=mod.run)
     return p

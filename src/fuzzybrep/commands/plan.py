@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import sys
 
 from ..plan import MODES, planner
@@ -20,13 +19,7 @@ _radius = number(lambda r: 0 <= r < math.inf, "radius must be a number, got {tex
                  "radius must be a finite number ≥ 0, got {text}")
 
 
-#: what argparse takes for a negative number rather than an option: its own pattern misses
-#: exponents and infinities (Python < 3.13), so "--goal -1e3 5" was "expected 2 arguments"
-_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p._negative_number_matcher = _NEGATIVE_NUMBER  # no option of this command looks like a number
     add_map_argument(p)
     p.add_argument("--start", type=finite, nargs=2, required=True, metavar=("X", "Y"), help="where the robot is")
     p.add_argument("--goal", type=finite, nargs=2, required=True, metavar=("X", "Y"), help="where it should go")
