@@ -162,6 +162,13 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     out = tmp_path / "fz.json"
     assert run("fuzzify", m, "--tme", 0.3, "--out", out) == 0  # a crisp map file is a valid input
     assert FuzzyBRepMap.load(out).table[1].tme_in == 0.3
+    # a map with its own functions: --tme would be ignored, so it is refused, by every map command
+    capsys.readouterr()
+    for cmd in (["memory"], ["tables"], ["view", "--html", tmp_path / "v.html"], ["plan", "--start", 1, 1, "--goal", 2, 2]):
+        assert run(cmd[0], out, *cmd[1:], "--tme", 0.5) == 2
+        assert "fz.json: the map has its own membership functions (Table 4.2), so --tme 0.5 would not be used" \
+            in capsys.readouterr().err
+    assert not (tmp_path / "v.html").exists()
 
 
 def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):

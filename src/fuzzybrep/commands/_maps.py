@@ -7,10 +7,10 @@ import json
 from pathlib import Path
 
 from ..brep import BRepMap, Ring
-from ..errors import MembershipFunctionError
+from ..errors import MapFileError, MembershipFunctionError
 from ..fuzzy import FuzzyBRepMap, fuzzify
 from ..geojson import read_geojson
-from ..mapfile import FORMAT, from_json
+from ..mapfile import FORMAT, MapFile, from_json, read_map
 from ..membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
@@ -58,8 +58,17 @@ def add_map_argument(parser: argparse.ArgumentParser) -> None:
                         help="fuzzify a crisp map (one without Table 4.2) with this TME on the fly")
 
 
-def load_map(args: argparse.Namespace) -> FuzzyBRepMap:
-    return FuzzyBRepMap.load(args.map, tme=args.tme)
+def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap:
+    """The fuzzy map of ``args.map`` (``m``: the file, if already read); --tme fuzzifies a crisp one.
+
+    --tme on a map that has its own functions (Table 4.2) is refused rather than ignored: the
+    user asked for an uncertainty the map does not carry."""
+    m = read_map(args.map) if m is None else m
+    if args.tme is not None and m.membership_functions:
+        raise MapFileError(args.map, f"the map has its own membership functions (Table 4.2), so --tme {args.tme:g} "
+                                     f"would not be used: leave it out, or fuzzify the map anew with "
+                                     f"`fuzzybrep fuzzify {args.map} --tme {args.tme:g} --out NEW.json`")
+    return FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
 
 
 def read_crisp(path: str | Path, unit: str) -> BRepMap:

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from ._maps import add_map_argument
+from ._maps import add_map_argument, load_map
 from ._types import number
 
 NAME = "view"
@@ -26,13 +26,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fuzzy import FuzzyBRepMap
     from ..mapfile import read_map
     from ..viewer import read_path, write_html
 
     t0 = time.perf_counter()
     m = read_map(args.map)
-    fuzzy = FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
+    fuzzy = load_map(args, m)
     path = read_path(args.path) if args.path else None
     n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas)
     extras = [f"{len(m.poses)} poses"] if m.poses is not None else []
