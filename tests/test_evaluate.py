@@ -41,6 +41,21 @@ def test_seen_free_needs_a_beam_passing_beyond_the_point_before_or_after_its_tim
     assert E.seen_free(p, np.array([1.0]), [full], [full.ranges], 0.2)[0].tolist() == [True]
 
 
+def test_seen_free_asks_both_beams_of_a_point_on_the_boundary_between_them():
+    # a point exactly half a beam spacing from two beams is within half a spacing of either: it
+    # was judged by one of them alone (the later one, or the last at a 360° scan's seam), so it
+    # was seen free by a long beam on one side and not by its mirror image
+    from fuzzybrep.scans.scan import Scan
+
+    two = np.array([0.0, np.pi / 2])  # the point (1, 1) lies at π/4, half way
+    four = np.array([-0.75, -0.25, 0.25, 0.75]) * np.pi  # 360°: the point (-1, 0) lies at π, across the seam
+    for b, p in ((two, [1.0, 1.0]), (four, [-1.0, 0.0])):
+        for long in (0, len(b) - 1):
+            s = Scan(np.where(np.arange(len(b)) == long, 5.0, 1.0), b, np.zeros(3))
+            before, after = E.seen_free(np.array([p]), np.array([1.0]), [s], [s.ranges], 0.2)
+            assert before.tolist() == [True] and not after.any(), (b, long)
+
+
 def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     empty = room(6, 4)
     person = shapely.box(2.8, 1.8, 3.2, 2.2)  # in the middle of the room

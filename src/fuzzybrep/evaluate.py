@@ -109,10 +109,11 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
               margin: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point, (before, after): did a scan earlier / later than the point's time see it free?
 
-    A scan sees a point free when the point lies within half a beam spacing of one of its beams
-    and that beam's free range (``free``: per scan, as the map used it, e.g. after the spike
-    filter) reaches ``margin`` or more beyond it. Seen free both before and after, an endpoint
-    is something that came and went: a person walking by, a door that opened and closed.
+    A scan sees a point free when the point lies within half a beam spacing (the median) of the
+    beam on either side of it (on the beam, for a scan of one) and that beam's free range
+    (``free``: per scan, as the map used it, e.g. after the spike filter) reaches ``margin`` or
+    more beyond it. Seen free both before and after, an endpoint is something that came and
+    went: a person walking by, a door that opened and closed.
     """
     before = np.zeros(len(points), bool)
     after = np.zeros(len(points), bool)
@@ -127,6 +128,7 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
         b = scans[idx[0]].bearings
         n = len(b)
         half = 0.5 * float(np.median(np.diff(b))) if n > 1 else 0.0
+        turn = np.append(b, b[0] + 2 * np.pi)
         for lo in range(0, len(idx), chunk):
             part = idx[lo : lo + chunk]
             pose = np.stack([scans[k].pose for k in part])
@@ -137,15 +139,16 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
             # only the (scan, point) pairs within reach of the scan's longest beam
             si, pi = np.nonzero(dist + margin <= f.max(axis=1)[:, None])
             dist = dist[si, pi]
-            # bearing of each point in its scan's frame, in [b0, b0 + 2π), and the nearest beam
+            # bearing of each point in its scan's frame, in [b0, b0 + 2π), and the beam on either
+            # side of it (a point half way between two is as near to both); above the last beam
+            # the one on the other side is the first, a turn on (a 360° scan's seam)
             rel = (np.arctan2(dy[si, pi], dx[si, pi]) - pose[si, 2] - b[0]) % (2 * np.pi) + b[0]
-            hi = np.minimum(np.searchsorted(b, rel), n - 1)
-            below = np.maximum(hi - 1, 0)
-            j = np.where(rel - b[below] < b[hi] - rel, below, hi)
-            off = np.abs(rel - b[j])
-            wrap = b[0] + 2 * np.pi - rel  # just below the first beam (a 360° scan: between last and first)
-            j, off = np.where(wrap < off, 0, j), np.minimum(off, wrap)
-            passed = (off <= half) & (f[si, j] >= dist + margin)
+            above = np.searchsorted(turn, rel)
+            below = np.maximum(above - 1, 0)
+            reach = dist + margin
+            passed = np.zeros(len(si), bool)
+            for j, off in ((below, rel - turn[below]), (above, turn[above] - rel)):
+                passed |= (off <= half) & (f[si, j % n] >= reach)
             t = np.array([scans[k].timestamp for k in part])[si]
             before[pi[passed & (t < times[pi])]] = True
             after[pi[passed & (t > times[pi])]] = True
