@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import shapely
 from _synthetic import room, scan_of
 
 from fuzzybrep import evaluate as E
 from fuzzybrep.build import BuildConfig
+from fuzzybrep.scans.scan import Scan
 
 
 def test_seen_near_finds_returns_of_other_scans_only_within_the_distance():
@@ -45,8 +48,6 @@ def test_seen_free_asks_both_beams_of_a_point_on_the_boundary_between_them():
     # a point exactly half a beam spacing from two beams is within half a spacing of either: it
     # was judged by one of them alone (the later one, or the last at a 360° scan's seam), so it
     # was seen free by a long beam on one side and not by its mirror image
-    from fuzzybrep.scans.scan import Scan
-
     two = np.array([0.0, np.pi / 2])  # the point (1, 1) lies at π/4, half way
     four = np.array([-0.75, -0.25, 0.25, 0.75]) * np.pi  # 360°: the point (-1, 0) lies at π, across the seam
     for b, p in ((two, [1.0, 1.0]), (four, [-1.0, 0.0])):
@@ -54,6 +55,35 @@ def test_seen_free_asks_both_beams_of_a_point_on_the_boundary_between_them():
             s = Scan(np.where(np.arange(len(b)) == long, 5.0, 1.0), b, np.zeros(3))
             before, after = E.seen_free(np.array([p]), np.array([1.0]), [s], [s.ranges], 0.2)
             assert before.tolist() == [True] and not after.any(), (b, long)
+
+
+def test_seen_free_takes_the_beam_within_half_a_spacing_only():
+    # beams 10° apart, every other one long (-90°, -70°, ..., 10°, 30°, ...): a point 4° from a
+    # long beam is seen free by it, one 6° from it lies nearer a short one; past the last beam too
+    b = np.radians(np.arange(-90.0, 91.0, 10.0))
+    s = Scan(np.where(np.arange(len(b)) % 2 == 0, 5.0, 1.0), b, np.zeros(3))
+    a = np.radians([6.0, 4.0, -6.0, -4.0, 94.0, 96.0])
+    pts = 2 * np.column_stack((np.cos(a), np.sin(a)))
+    before, _ = E.seen_free(pts, np.ones(len(a)), [s], [s.ranges], 0.2)
+    assert before.tolist() == [True, False, True, False, True, False]
+
+
+def test_seen_free_of_scans_with_different_beams_a_few_pairs_at_a_time(monkeypatch):
+    # 180° and 360° scans, each judged by its own beams, and the (scan, point) pairs taken all
+    # at once, a few scans at a time or one: the same as each scan alone
+    world = room(6, 4)
+    scans = [scan_of(world, (3.0, 2.0, 0.3 * k), n=181, t=float(k)) for k in range(3)]
+    scans += [scan_of(world, (2.0, 1.5, 0.5 * k), n=360, fov=2 * np.pi * 359 / 360, t=float(k)) for k in range(3, 6)]
+    free = [s.ranges for s in scans]
+    rng = np.random.default_rng(0)
+    pts, times = rng.uniform((0, 0), (6, 4), (200, 2)), rng.uniform(0, 6, 200)
+    alone = [E.seen_free(pts, times, [s], [f], 0.2) for s, f in zip(scans, free)]
+    expected = [np.any([a[i] for a in alone], axis=0) for i in (0, 1)]
+    assert 0 < expected[0].sum() < 200 and 0 < expected[1].sum() < 200
+    for pairs in (E._PAIRS, 450, 1):
+        monkeypatch.setattr(E, "_PAIRS", pairs)
+        before, after = E.seen_free(pts, times, scans, free, 0.2)
+        assert before.tolist() == expected[0].tolist() and after.tolist() == expected[1].tolist()
 
 
 def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
@@ -68,6 +98,14 @@ def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     assert e.violations_unseen == e.exact.violations  # and no kept scan saw anything there
     # kept scans before and after looked through where the person stood: they came and went
     assert e.violations_came_and_went == e.exact.violations
+    # the last scan held out: no kept scan after it, so its person came but did not go
+    e = E.evaluate_log(scans[:-1], 2, BuildConfig())
+    last = len(E.endpoints(scans[-2:-1]))
+    assert e.exact.violated[-last:].any()
+    assert e.violations_came_and_went == e.exact.violated[:-last].sum() / len(e.exact.violated) < e.exact.violations
+    # and in reverse time, no kept scan before it: its person went but had not come
+    rev = [dataclasses.replace(s, timestamp=-s.timestamp) for s in scans[:-1]]
+    assert E.evaluate_log(rev, 2, BuildConfig()).violations_came_and_went == e.violations_came_and_went
     # the person standing there in every scan: the map has an obstacle, nothing is violated
     still = [scan_of(empty.difference(person), p, n=361, fov=2 * np.pi - 0.02, t=float(k)) for k, p in enumerate(poses)]
     e = E.evaluate_log(still, 2, BuildConfig())

@@ -31,6 +31,9 @@ from .polygon import PolygonConfig, depth_continuous
 from .scans.filters import classify_all
 from .scans.scan import Scan
 
+#: ``seen_free`` looks at about this many (scan, point) pairs at a time: its arrays stay bounded
+_PAIRS = 4_000_000
+
 
 @dataclass(frozen=True)
 class EndpointScore:
@@ -123,7 +126,7 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
     for k, s in enumerate(scans):
         if len(s.bearings):
             groups.setdefault(s.bearings.tobytes(), []).append(k)
-    chunk = max(1, 4_000_000 // len(points))  # scans at a time: bounded (scans × points) arrays
+    chunk = max(1, _PAIRS // len(points))  # scans at a time
     for idx in groups.values():
         b = scans[idx[0]].bearings
         n = len(b)
