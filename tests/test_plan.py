@@ -404,6 +404,9 @@ def test_a_map_too_large_to_compute_with_is_refused_clearly(pillar_room):
         plan(huge, (1e79, 1e79), (9e79, 5e79))
     with pytest.raises(PlanError, match="coordinates reach"):
         plan_module.Planner(huge.crisp_geometry)
+    for source in (huge.crisp, huge.crisp_geometry):  # the safe region of a crisp map or a polygon too
+        with pytest.raises(PlanError, match="coordinates reach"):
+            plan_module.safe_region(source, radius=1e78)
     # 1e50 across is still planned in
     k = 1e49
     big = fuzzify(BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), k, k,
