@@ -630,6 +630,25 @@ def test_cli_text_path_read_back_stays_in_the_safe_region_far_from_the_origin(tm
     assert lines[1] == "500001.3 4000002.9" and lines[-1] == "500008.7 4000003.1"
 
 
+@given(st.floats(min_value=-1e300, max_value=1e300), st.floats(min_value=1e-300, max_value=1e300))
+@settings(max_examples=300, deadline=None)
+def test_cli_coordinates_are_printed_within_half_a_step(v, step):
+    # (not near the largest float: rounded up, 1.79769313485e308 reads back as inf; paths lie
+    # within ±plan.LARGEST)
+    from fuzzybrep.commands.plan import _coordinate
+
+    assert abs(float(_coordinate(v, step)) - v) <= step / 2
+
+
+def test_cli_coordinates_are_printed_with_the_digits_the_step_needs():
+    from fuzzybrep.commands.plan import _coordinate
+
+    for v, step, text in [(-9.8, 2**-30, "-9.8"), (4.0, 2**-30, "4"), (0.0, 1e-9, "0"), (-0.0, 1e-9, "0"),
+                          (500003.70548387617, 1.2e-9, "500003.705483876"), (-123456.0, 1e4, "-1.2e+05"),
+                          (0.3, 1.0, "0.3"), (-1e-300, 1e-9, "-1e-300"), (1 / 3, 1e-300, "0.33333333333333331")]:
+        assert _coordinate(v, step) == text, (v, step)
+
+
 def test_cli_says_why_in_one_line_and_exits_2(room_file, capsys):
     assert main(["plan", str(room_file), "--start", "5", "3", "--goal", "9", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
