@@ -70,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
 def _coordinate(v: float, step: float) -> str:
     """``v`` with the fewest significant digits (17 at most: they read back exactly) that keep
     it within ``step`` / 2; "-9.8", not "-9.800000000"."""
-    v = float(v) + 0.0  # no "-0"
-    if v == 0:
+    v = float(v)
+    if v == 0:  # -0.0 too
         return "0"
     digits = math.floor(math.log10(abs(v))) + 1 - math.floor(math.log10(step))
     return f"{v:.{min(max(digits, 1), 17)}g}"
