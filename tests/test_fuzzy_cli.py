@@ -103,6 +103,10 @@ def test_alpha_cut_refuses_bad_alpha(plan, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         run("alpha-cut", m, "--alpha", 1.5, "--out", tmp_path / "c.geojson")
     assert e.value.code == 2 and "[0, 1]" in capsys.readouterr().err
+    # a negative number with an exponent is a value for every command, not only plan's coordinates
+    with pytest.raises(SystemExit):
+        run("alpha-cut", m, "--alpha", "-1e-3", "--out", tmp_path / "c.geojson")
+    assert "argument --alpha: α must lie in [0, 1], got -1e-3" in capsys.readouterr().err
 
 
 def test_membership_command(tmp_path, capsys):
