@@ -168,11 +168,14 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     assert FuzzyBRepMap.load(out).table[1].tme_in == 0.3
     # a map with its own functions: --tme would be ignored, so it is refused, by every map command
     capsys.readouterr()
-    for cmd in (["memory"], ["tables"], ["view", "--html", tmp_path / "v.html"], ["plan", "--start", 1, 1, "--goal", 2, 2]):
+    (tmp_path / "pts.csv").write_text("1,1\n")
+    for cmd in (["memory"], ["tables"], ["view", "--html", tmp_path / "v.html"], ["plan", "--start", 1, 1, "--goal", 2, 2],
+                ["export", "--geojson", tmp_path / "e.geojson"], ["alpha-cut", "--alpha", 0.5, "--out", tmp_path / "c.geojson"],
+                ["membership", "--points", tmp_path / "pts.csv"]):
         assert run(cmd[0], out, *cmd[1:], "--tme", 0.5) == 2
         assert "fz.json: the map has its own membership functions (Table 4.2), so --tme 0.5 would not be used" \
             in capsys.readouterr().err
-    assert not (tmp_path / "v.html").exists()
+    assert not any((tmp_path / f).exists() for f in ("v.html", "e.geojson", "c.geojson"))
 
 
 def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):
