@@ -176,6 +176,9 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
         assert "fz.json: the map has its own membership functions (Table 4.2), so --tme 0.5 would not be used" \
             in capsys.readouterr().err
     assert not any((tmp_path / f).exists() for f in ("v.html", "e.geojson", "c.geojson"))
+    # the command it suggests fuzzifies with the TME asked for, not one rounded to 6 digits
+    assert run("memory", out, "--tme", 0.1234567) == 2
+    assert f"`fuzzybrep fuzzify {out} --tme 0.1234567 --out NEW.json`" in capsys.readouterr().err
 
 
 def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):

@@ -65,9 +65,10 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
     user asked for an uncertainty the map does not carry."""
     m = read_map(args.map) if m is None else m
     if args.tme is not None and m.membership_functions:
-        raise MapFileError(args.map, f"the map has its own membership functions (Table 4.2), so --tme {args.tme:g} "
+        tme = repr(args.tme)  # every digit: the command suggested must fuzzify with the TME given
+        raise MapFileError(args.map, f"the map has its own membership functions (Table 4.2), so --tme {tme} "
                                      f"would not be used: leave it out, or fuzzify the map anew with "
-                                     f"`fuzzybrep fuzzify {args.map} --tme {args.tme:g} --out NEW.json`")
+                                     f"`fuzzybrep fuzzify {args.map} --tme {tme} --out NEW.json`")
     return FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
 
 
