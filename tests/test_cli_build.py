@@ -104,4 +104,4 @@ def test_evaluate_prints_scores(tmp_path, capsys):
     assert 0 <= d["violations_came_and_went"] <= d["exact"]["violations"]
     assert cli.main(["evaluate", str(log), "--holdout", "2"]) == 0
     text = capsys.readouterr().out
-    assert "explained" in text and "no kept scan saw any return within TME" in text
+    assert "explained" in text and "no kept scan saw any return within TME" in text and "violations that came and went" in text
