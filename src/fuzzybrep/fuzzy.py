@@ -42,6 +42,10 @@ _SMALL_RING = 64
 #: arcs of the exact α-cuts: segments per quarter circle (GEOS buffer's quad_segs)
 EXACT_QUAD_SEGS = 32
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
+#: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
+#: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
+#: union on the jagged benchmark floor, 1.3-2× on Freiburg 079); the same result
+_union_all = shapely.disjoint_subset_union_all if shapely.geos_version >= (3, 12, 0) else shapely.union_all
 
 
 @dataclass(frozen=True, eq=False)
@@ -466,16 +470,47 @@ class FuzzyBRepMap:
         band = shapely.union_all(parts)
         return clean(shapely.difference(crisp, band)), clean(shapely.union(crisp, band))
 
-    @staticmethod
-    def _exact_side(crisp, parts: list, sign: int, quad_segs: int) -> shapely.Geometry:
+    def _exact_side(self, crisp, parts: list, sign: int, quad_segs: int) -> shapely.Geometry:
         ds = {d for _, d in parts}
         if ds == {0.0}:
             return crisp
         if len(ds) == 1:
-            return polygonal(shapely.buffer(crisp, sign * ds.pop(), quad_segs=quad_segs))
+            return self._buffered(sign * ds.pop(), quad_segs)
         band = shapely.union_all([shapely.buffer(g["multi"], d, quad_segs=quad_segs) for g, d in parts if d > 0])
         op = shapely.difference if sign < 0 else shapely.union
         return polygonal(op(crisp, band))
+
+    def _buffered(self, d: float, quad_segs: int) -> shapely.Geometry:
+        """The crisp map buffered by d with round joins (d < 0 erodes it, d > 0 dilates it), ring
+        by ring: the geometry of ``shapely.buffer(crisp_geometry, d)``, 5-12× faster on the real
+        maps (thousands of holes).
+
+        GEOS nodes the offset curves of all a polygon's rings together, which grows faster than
+        linearly with the number of holes (3.5 s on Freiburg 079's 2977). A disc distributes over
+        the rings instead. For a region F = P − ∪H_i (principal polygon P, holes H_i inside it
+        that meet each other or P's ring at points at most)
+
+            erosion(F, d)  = erosion(P, d) − ∪ dilation(H_i, d)    a disc in F misses every hole
+            dilation(F, d) = dilation(P, d) − ∪ erosion(H_i, d)    a disc in ∪H_i lies in one H_i
+
+        and the regions, apart but for points, erode and dilate one by one: the map's erosion and
+        dilation are the unions of theirs. So every ring's polygon is buffered alone, all in one
+        vectorised call (most small holes vanish when eroded), and each region takes one union
+        of its holes and one difference.
+        """
+        s = self._stack
+        shell = s["shell"][s["start"]]
+        rings = shapely.buffer(s["ring_polys"], np.where(shell, d, -d), quad_segs=quad_segs)
+        pieces, k = [], 0
+        for region in self.crisp.regions:
+            principal, holes = rings[k], rings[k + 1:k + len(region.rings)]
+            k += len(region.rings)
+            holes = holes[~shapely.is_empty(holes)]
+            if len(holes) and not principal.is_empty:
+                principal = shapely.difference(principal, _union_all(holes))
+            pieces.append(principal)
+        # the dilations of regions can overlap (a piece of explored space inside a hole)
+        return clean(pieces[0] if len(pieces) == 1 else _union_all(pieces))
 
     # -- membership ----------------------------------------------------------------------------
 
