@@ -476,7 +476,7 @@ class FuzzyBRepMap:
 
     def _buffered(self, d: float, quad_segs: int) -> shapely.Geometry:
         """The crisp map buffered by d with round joins (d < 0 erodes it, d > 0 dilates it), ring
-        by ring: the geometry of ``shapely.buffer(crisp_geometry, d)``, 5-12× faster on the real
+        by ring: the geometry of ``shapely.buffer(crisp_geometry, d)``, 6-12× faster on the real
         maps (thousands of holes).
 
         GEOS nodes the offset curves of all a polygon's rings together, which grows faster than
