@@ -8,9 +8,13 @@ a synthetic floor (jagged walls and many obstacles, metres). For every α it tim
 - read:   the α-cut's vertices from the lines, x = U + T·t, y = W + V·t (O(n) array operations);
 - sweep:  the full α-cut: read, proper polygons (GEOS only where an offset self-intersects),
           inner and outer polygons of the whole map;
-- buffer: GEOS buffer of the crisp map inwards and outwards by the same distances (round joins,
-          8 segments per quarter circle, the GEOS default) — what the thesis avoids recomputing;
-- mitre:  the same with mitred joins (closest to a polygon offset), when one function is used;
+- buffer: GEOS buffer of the whole crisp map inwards and outwards by the same distances (round
+          joins, 8 segments per quarter circle, the GEOS default) — what the thesis avoids
+          recomputing (with several distances, the exact α-cut instead);
+- exact:  the exact α-cut as the library computes it, every ring buffered alone (same distances,
+          same joins and segments; ``benchmarks/exact_cut.py`` compares the two further);
+- mitre:  the whole-map buffer with mitred joins (closest to a polygon offset), when one
+          symmetric distance applies;
 
 and reports speed as ratios against the buffer baseline timed in the same run (never as absolute
 times to be compared across machines). Then the approximation error of the sweep against the
@@ -101,8 +105,9 @@ def best(fn, repeat: int) -> float:
 
 def run(fz: FuzzyBRepMap, alphas: list[float], repeat: int, label: str) -> str:
     crisp = fz.crisp_geometry
-    symmetric = len(fz.table) == 1 and fz.table[1].symmetric
     f1 = fz.table[1]
+    # one symmetric distance (frontier edges may carry their own index of the same function)
+    symmetric = f1.symmetric and all(f == f1 for _, f in fz.table)
     fz.alpha_cut(0.5)  # build the cached stacks once, as a loaded map would
     t = time.perf_counter()
     fuzzify(fz.crisp, fz.table)
@@ -111,34 +116,39 @@ def run(fz: FuzzyBRepMap, alphas: list[float], repeat: int, label: str) -> str:
     for a in alphas:
         t_read = best(lambda: fz.offset_vertices(a), repeat)
         t_sweep = best(lambda: fz.alpha_cut(a), repeat)
-        t_buffer = best(lambda: fz.alpha_cut(a, "exact", quad_segs=8), repeat)
-        t_mitre = None
-        if symmetric:
-            d = float(f1.d_in(a))
+        t_exact = best(lambda: fz.alpha_cut(a, "exact", quad_segs=8), repeat)
+        t_buffer, t_mitre = t_exact, None
+        d = float(f1.d_in(a))
+        if symmetric and d > 0:
+            t_buffer = best(lambda: (shapely.buffer(crisp, -d, quad_segs=8), shapely.buffer(crisp, d, quad_segs=8)),
+                            repeat)
             t_mitre = best(lambda: (shapely.buffer(crisp, -d, join_style="mitre"),
-                                    shapely.buffer(crisp, d, join_style="mitre")), repeat) if d > 0 else None
-        rows.append((a, t_read, t_sweep, t_buffer, t_mitre))
+                                    shapely.buffer(crisp, d, join_style="mitre")), repeat)
+        rows.append((a, t_read, t_sweep, t_buffer, t_mitre, t_exact))
     c = fz.crisp
     out = [f"## α-cut benchmark: {label}", "",
            f"{c.n_vertices} vertices in {len(c.rings)} rings ({c.n_holes} holes), area {crisp.area:.6g} {c.unit}², "
            f"membership function {f1.formula()}"
            + ("" if len(fz.table) == 1 else f" and {len(fz.table) - 1} more") + f"; fuzzify took {t_fuzzify * 1e3:.0f} ms.",
            "",
-           "Speed as ratios against GEOS buffer (round joins, 8 segments per quarter circle) of the crisp map "
+           "Speed as ratios against GEOS buffer (round joins, 8 segments per quarter circle) of the whole crisp map "
            "by the same distances, inwards and outwards, timed in the same run "
-           f"(median of {repeat}). > 1: the sweep is faster.", "",
-           "| α | buffer / read lines | buffer / sweep α-cut | mitre buffer / sweep α-cut |",
-           "|---:|---:|---:|---:|"]
-    for a, tr, ts, tb, tm in rows:
+           f"(median of {repeat}). > 1: the sweep is faster; in the exact column, the exact α-cut "
+           "(the same buffers, ring by ring) is.", "",
+           "| α | buffer / read lines | buffer / sweep α-cut | buffer / exact α-cut | mitre buffer / sweep α-cut |",
+           "|---:|---:|---:|---:|---:|"]
+    for a, tr, ts, tb, tm, te in rows:
         if a == 1:  # both sides return the crisp map without work: nothing to compare
-            out.append("| 1 | — | — | — |")
+            out.append("| 1 | — | — | — | — |")
             continue
         mitre = "—" if tm is None else f"{tm / ts:.2f}"
-        out.append(f"| {a:g} | {tb / tr:.0f} | {tb / ts:.2f} | {mitre} |")
+        out.append(f"| {a:g} | {tb / tr:.0f} | {tb / ts:.2f} | {tb / te:.2f} | {mitre} |")
     tot_s = sum(r[2] for r in rows if r[0] < 1)
     tot_b = sum(r[3] for r in rows if r[0] < 1)
+    tot_e = sum(r[5] for r in rows if r[0] < 1)
     out += ["", f"Over all α < 1: GEOS buffer / sweep α-cut = **{tot_b / tot_s:.2f}**; "
-                f"GEOS buffer / reading the lines alone = **{tot_b / sum(r[1] for r in rows if r[0] < 1):.0f}**.", ""]
+                f"GEOS buffer / reading the lines alone = **{tot_b / sum(r[1] for r in rows if r[0] < 1):.0f}**; "
+                f"GEOS buffer / exact α-cut = **{tot_b / tot_e:.2f}**.", ""]
     out += ["### Approximation error of the sweep (single normal vertex) against the exact fuzzification", "",
             "Area of the symmetric difference between the sweep's and the exact (Extension principle) inner "
             "polygons, and outer polygons, per α; the last column relates their sum to the exact band "
