@@ -468,7 +468,14 @@ class FuzzyBRepMap:
             parts.append(shapely.buffer(g["lines"], min(d_in, d_out), quad_segs=quad_segs))
             wide = shapely.buffer(g["lines"], max(d_in, d_out), quad_segs=quad_segs)
             cut = shapely.intersection if d_in > d_out else shapely.difference
-            parts.append(cut(wide, polys[g["ring"]]))  # each edge's by its ring: the union's cut by it
+            # short rings: each edge's buffer cut by its ring's polygon, all in one call; long
+            # ones united first and cut once (edge by edge, a ring of n edges cost n overlays
+            # with its whole polygon: 24 s at 20 000 vertices)
+            ring = g["ring"]
+            long = np.bincount(ring)[ring] > _SMALL_RING
+            parts.append(cut(wide[~long], polys[ring[~long]]))
+            for k in np.unique(ring[long]):
+                parts.append(np.array([cut(_union_all(wide[ring == k]), polys[k])], dtype=object))
         if not parts:
             return crisp, crisp
         band = _union_all(np.concatenate(parts))
