@@ -577,7 +577,7 @@ class FuzzyBRepMap:
     @cached_property
     def _ring_polygons(self) -> np.ndarray:
         """Every ring's own polygon (``crisp.rings`` order), prepared: what IN means for its edges."""
-        polys = np.array([shapely.Polygon(r.vertices) for r in self.crisp.rings], dtype=object)
+        polys = self._stack["ring_polys"]
         shapely.prepare(polys)
         return polys
 
