@@ -41,6 +41,12 @@ METHODS = ("sweep", "exact")
 _SMALL_RING = 64
 #: arcs of the exact α-cuts: segments per quarter circle (GEOS buffer's quad_segs)
 EXACT_QUAD_SEGS = 32
+#: maps with coordinates beyond ± this are refused (by ``membership`` and the planner): μ
+#: (``sweep.band_parameter``) and GEOS's triangulation multiply four coordinates together, which
+#: passes the largest float (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the
+#: triangulation overflowed, Qhull failed and μ came out wrong), and distances to a point beyond
+#: 1e154 overflow
+LARGEST = 1e60
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
@@ -534,11 +540,9 @@ class FuzzyBRepMap:
             return np.zeros(0)
         if not np.isfinite(p).all():
             raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
-        if self._rounding > 1e48:  # 1e-12 of the map's size: the map is more than 1e60 across
-            # the sweep multiplies four coordinates together (``sweep.band_parameter``): from about
-            # 1e77 across that overflows and μ came out wrong, without a warning for most points
+        if self._rounding * 1e12 > LARGEST:  # the map's size (an O(1) check: it is cached)
             raise GeometryError(f"the map is {self._rounding * 1e12:.3g} {self.unit} across: μ is computed "
-                                f"for maps up to 1e+60 {self.unit} across, beyond which its arithmetic overflows")
+                                f"for maps up to {LARGEST:g} {self.unit} across, beyond which its arithmetic overflows")
         if method == "exact":
             return self._membership_exact(p)
         return self._membership_sweep(p)

@@ -24,7 +24,7 @@ import shapely
 
 from .brep import BRepMap
 from .errors import NoConnectionError, PlanError, PointNotFreeError
-from .fuzzy import METHODS, FuzzyBRepMap, _check_alpha
+from .fuzzy import LARGEST, METHODS, FuzzyBRepMap, _check_alpha
 from .medial import MedialAxis
 from .sweep import polygonal
 from .visibility import Triangulation, VisibilityGraph, shortest_chain
@@ -45,11 +45,6 @@ RELATIVE_TOLERANCE = 1e-9
 #: (``Planner.piece``): with the move into the region (``Planner._into``) at most 5/16 of the
 #: tolerance, which the tolerance's buffer (one chord per quarter circle) covers everywhere
 ON_EDGE = 1 / 4
-#: maps, start and goal with coordinates beyond ± this are refused: GEOS's triangulation and μ
-#: (``sweep.band_parameter``) multiply four coordinates together, which passes the largest float
-#: (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the triangulation overflowed,
-#: Qhull failed and μ came out wrong), and distances to a point beyond 1e154 overflow
-LARGEST = 1e60
 #: clearance mode: boundary points for the medial axis, at most about this many
 _MEDIAL_SITES = 40_000
 #: clearance mode: how many nearest medial-axis nodes to try to step onto from start and goal,
