@@ -49,9 +49,14 @@ class EndpointScore:
         return {"endpoints": self.endpoints, "explained": self.explained, "violations": self.violations, "beyond": self.beyond}
 
 
+def scored(scan: Scan, max_range: float) -> np.ndarray:
+    """(n,) bool: the beams whose endpoints are scored, returns closer than max_range."""
+    return scan.returns & (scan.ranges < max_range)
+
+
 def endpoints(scans: Sequence[Scan], max_range: float = 5.0) -> np.ndarray:
     """(m, 2) world coordinates of every return closer than max_range."""
-    pts = [s.endpoints()[s.returns & (s.ranges < max_range)] for s in scans]
+    pts = [s.endpoints()[scored(s, max_range)] for s in scans]
     return np.vstack(pts) if pts else np.zeros((0, 2))
 
 
@@ -75,7 +80,7 @@ def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: flo
             seam = depth_continuous(r[-1:], r[:1], b[:1] + 2 * np.pi - b[-1:], polygon) & ret[-1:] & ret[:1]
             ring = np.concatenate((cont, seam))  # beam i and i + 1 mod n
             if ring.all():  # one surface all round
-                out.append(np.zeros(int((ret & (r < max_range)).sum()), bool))
+                out.append(np.zeros(int(scored(s, max_range).sum()), bool))
                 continue
             k = (int(np.argmin(ring)) + 1) % n
             cont, r, ret = np.roll(ring, -k)[:-1], np.roll(r, -k), np.roll(ret, -k)
@@ -91,7 +96,7 @@ def small_objects(scans: Sequence[Scan], max_range: float = 5.0, max_extent: flo
         after = np.where((nxt >= 0) & ret[nxt], r[nxt], np.inf)
         small = (extent < max_extent) & (before > r[first]) & (after > r[last]) & (last - first + 1 < n)
         small = np.roll(small[seg], k)
-        out.append(small[s.returns & (s.ranges < max_range)])
+        out.append(small[scored(s, max_range)])
     return np.concatenate(out) if out else np.zeros(0, bool)
 
 
@@ -276,7 +281,7 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     viol = scores["exact"].violated
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
     unseen = float((viol & ~seen_near(pts, kept, tme)).mean())
-    times = np.concatenate([np.full(int((s.returns & (s.ranges < max_range)).sum()), s.timestamp) for s in held])
+    times = np.repeat([s.timestamp for s in held], [int(scored(s, max_range).sum()) for s in held])  # per endpoint
     free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
     before, after = seen_free(pts[viol], times[viol], kept, free, tme)
     came_and_went = float((before & after).sum() / len(pts))
