@@ -42,14 +42,7 @@ from fuzzybrep.sweep import clean, polygonal  # noqa: E402
 def former_cut(fz: FuzzyBRepMap, alpha: float, quad_segs: int = EXACT_QUAD_SEGS) -> tuple:
     """(inner, outer) as ``alpha_cut(α, "exact")`` computed them before the ring-by-ring cut."""
     crisp = fz.crisp_geometry
-    symmetric, sided = [], []
-    for g in fz._edge_groups:
-        f = fz.table[g["fm"]]
-        d_in, d_out = (0.0 if d <= fz._rounding else d for d in (float(f.d_in(alpha)), float(f.d_out(alpha))))
-        if f.symmetric:
-            symmetric.append((g, d_in))
-        else:
-            sided.append((g, d_in, d_out))
+    symmetric, sided = fz._cut_distances(alpha)
     ds = {d for _, d in symmetric}
     if not sided and len(ds) == 1:
         d = ds.pop()

@@ -426,8 +426,9 @@ class FuzzyBRepMap:
                                    "ring": seg_ring[sel], "lines": lines, "tree": shapely.STRtree(lines)})
         return groups
 
-    def _exact_cut(self, alpha: float, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
-        crisp = self.crisp_geometry
+    def _cut_distances(self, alpha: float) -> tuple[list, list]:
+        """(symmetric, sided): the α-cut's distances per edge group, (group, d) for a symmetric
+        function, (group, d_in, d_out) for an asymmetric one."""
         symmetric, sided = [], []
         for g in self._edge_groups:
             f = self.table[g["fm"]]
@@ -438,6 +439,11 @@ class FuzzyBRepMap:
                 symmetric.append((g, d_in))
             else:
                 sided.append((g, d_in, d_out))
+        return symmetric, sided
+
+    def _exact_cut(self, alpha: float, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
+        crisp = self.crisp_geometry
+        symmetric, sided = self._cut_distances(alpha)
         ds = {d for _, d in symmetric}
         if sided or len(ds) > 1:
             return AlphaCut(alpha, "exact", *self._exact_band(crisp, symmetric, sided, quad_segs), self.unit)
