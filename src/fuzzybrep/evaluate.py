@@ -108,8 +108,8 @@ def seen_near(points: np.ndarray, scans: Sequence[Scan], distance: float) -> np.
     """
     from scipy.spatial import cKDTree
 
-    seen = endpoints(scans, np.inf)
-    if len(points) == 0 or len(seen) == 0:
+    seen = endpoints(scans, np.inf) if len(points) else np.zeros((0, 2))
+    if len(seen) == 0:
         return np.zeros(len(points), bool)
     return cKDTree(seen).query(points, distance_upper_bound=distance)[0] <= distance
 
@@ -280,7 +280,7 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
         scores[method] = score(pts, cut.inner, cut.outer)
     viol = scores["exact"].violated
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
-    unseen = float((viol & ~seen_near(pts, kept, tme)).mean())
+    unseen = float((~seen_near(pts[viol], kept, tme)).sum() / len(pts))  # asked of the violations only
     times = np.repeat([s.timestamp for s in held], [int(scored(s, max_range).sum()) for s in held])  # per endpoint
     free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
     before, after = seen_free(pts[viol], times[viol], kept, free, tme)
