@@ -239,8 +239,7 @@ class FuzzyBRepMap:
         d_out = self.table.d_out(s["fm"], alpha)
         # no offset within rounding: a ring moved by an ulp or two made GEOS take outer − inner
         # for the whole map
-        d_in = np.where(d_in <= self._rounding, 0.0, d_in)
-        d_out = np.where(d_out <= self._rounding, 0.0, d_out)
+        d_in, d_out = self._offset(d_in), self._offset(d_out)
         t_shrink = np.where(s["shell"], 1.0 - d_in / s["SI"], 1.0 + d_out / s["SI"])
         t_grow = np.where(s["shell"], 1.0 + d_out / s["SI"], 1.0 - d_in / s["SI"])
         # x = U + T·t, y = W + V·t, evaluated as X + T·(t − 1) so that t = 1 is the crisp vertex
@@ -434,7 +433,7 @@ class FuzzyBRepMap:
             f = self.table[g["fm"]]
             # GEOS buffers at a distance near rounding (α → 1) can come back perturbed by more
             # than the distance (precision-reduction fallback)
-            d_in, d_out = (0.0 if d <= self._rounding else d for d in (float(f.d_in(alpha)), float(f.d_out(alpha))))
+            d_in, d_out = float(self._offset(f.d_in(alpha))), float(self._offset(f.d_out(alpha)))
             if f.symmetric:  # d_in = d_out
                 symmetric.append((g, d_in))
             else:
@@ -578,6 +577,10 @@ class FuzzyBRepMap:
             # symmetric function the side does not change μ)
             mu = np.maximum(mu, f.mu(np.where(inside == g["shell"], -dist, dist)))
         return mu
+
+    def _offset(self, d):
+        """Offset distances d (scalar or array) with those within ``_rounding`` made none."""
+        return np.where(d <= self._rounding, 0.0, d)
 
     @cached_property
     def _rounding(self) -> float:
