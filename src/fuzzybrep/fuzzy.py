@@ -476,7 +476,8 @@ class FuzzyBRepMap:
             # both sides to the smaller distance, then the wider side on its own: cut by the ring,
             # so that the crisp edges (where the cut runs) lie inside the band, never on its
             # boundary (GEOS overlays of polygons sharing edges were seen to go wrong)
-            parts.append(shapely.buffer(g["lines"], min(d_in, d_out), quad_segs=quad_segs))
+            if min(d_in, d_out) > 0:
+                parts.append(shapely.buffer(g["lines"], min(d_in, d_out), quad_segs=quad_segs))
             wide = shapely.buffer(g["lines"], max(d_in, d_out), quad_segs=quad_segs)
             cut = shapely.intersection if d_in > d_out else shapely.difference
             # short rings: each edge's buffer cut by its ring's polygon, all in one call; long
