@@ -21,7 +21,7 @@ import numpy as np
 import shapely
 
 from .errors import GeometryError
-from .sweep import polygonal, signed_area
+from .sweep import NESTS_FROM, nests, polygonal, signed_area
 
 #: Edge kinds: an obstacle edge is where a laser return was seen; a frontier edge is the limit of
 #: what was seen (no return, maximum range, the side of a ray past an occluding object).
@@ -191,11 +191,7 @@ class BRepMap:
         for region in self.regions:
             region_names = names[first:first + 1 + len(region.holes)]
             first += len(region_names)
-            g = region.to_shapely()
-            if not g.is_valid:
-                reason = shapely.is_valid_reason(g)
-                name, vertex = locate_vertex([r.vertices for r in region.rings], region_names, reason)
-                raise GeometryError(f"invalid region: {reason}", ring=name or region_names[0], vertex=vertex)
+            check_region(region, region_names)
             if region.shell.signed_area <= 0:
                 raise GeometryError("outer boundary must run counter-clockwise", ring=region_names[0])
             for name, h in zip(region_names[1:], region.holes):
@@ -255,6 +251,21 @@ def locate_vertex(rings: Sequence[np.ndarray], names: Sequence[str], reason: str
     ends = np.cumsum([len(r) for r in rings])
     k = int(np.searchsorted(ends, v - 1, side="right"))
     return names[k], v - (int(ends[k - 1]) if k else 0)
+
+
+def check_region(region: Region, names: Sequence[str]) -> None:
+    """GeometryError naming the ring and vertex if a region of simple rings is invalid (holes
+    overlapping, or not inside its principal polygon). With many holes the indexed ``nests``
+    test goes first: it vouches for most valid regions at a fraction of ``is_valid``'s cost."""
+    if len(region.holes) * len(region.shell) > NESTS_FROM:
+        polys = rings_to_shapely(list(region.rings))
+        if nests(polys[0], polys[1:]):
+            return
+    g = region.to_shapely()
+    if not g.is_valid:
+        reason = shapely.is_valid_reason(g)
+        ring_name, vertex = locate_vertex([r.vertices for r in region.rings], names, reason)
+        raise GeometryError(f"invalid region: {reason}", ring=ring_name or names[0], vertex=vertex)
 
 
 def rings_to_shapely(rings: list[Ring]) -> np.ndarray:

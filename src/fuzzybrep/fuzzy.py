@@ -27,11 +27,11 @@ from functools import cached_property
 import numpy as np
 import shapely
 
-from .brep import BRepMap, Ring, frontier_fm, locate_vertex, rings_to_shapely, validate_ring
+from .brep import BRepMap, Ring, check_region, frontier_fm, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
-from .sweep import (NESTS_FROM, ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull, nests,
+from .sweep import (ParametricLines, band_parameter, clean, folded_bands, free_space, in_hull,
                     normal_vertices_stacked, polygonal, proper_polygon)
 
 SHELL = "shell"
@@ -891,16 +891,7 @@ def validate_map(crisp: BRepMap) -> None:
     k = 0
     for region in crisp.regions:
         region_names, k = names[k:k + len(region.rings)], k + len(region.rings)
-        # the rings are simple now: holes apart and inside the shell make a valid region
-        if len(region.holes) * len(region.shell) > NESTS_FROM:
-            polys = rings_to_shapely(list(region.rings))
-            if nests(polys[0], polys[1:]):
-                continue
-        g = region.to_shapely()
-        if not g.is_valid:
-            reason = shapely.is_valid_reason(g)
-            ring_name, vertex = locate_vertex([r.vertices for r in region.rings], region_names, reason)
-            raise GeometryError(f"invalid region: {reason}", ring=ring_name or region_names[0], vertex=vertex)
+        check_region(region, region_names)  # the rings are simple now
 
 
 # ---------------------------------------------------------------------------------------------
