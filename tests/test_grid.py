@@ -274,3 +274,28 @@ def test_intel_grid_free_area_and_round_trip(real_scans, tmp_path):
     np.testing.assert_array_equal(m.image, grid_image(g))
     np.testing.assert_array_equal(m.occupancy(), g.trinary())
     assert pgm_path.stat().st_size < g.cells + 200  # one byte a cell plus the header
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3.2, 3.2)), min_size=1, max_size=4),
+       st.floats(0.05, 0.5), st.floats(0.5, 4.0))
+def test_the_grid_commands_size_check_agrees_with_the_grid_it_guards(poses, resolution, max_usable):
+    # before: the check counted span / r + 3 cells where the grid can need + 4, so a grid one cell
+    # over the limit passed the check and ended in occupancy_grid's bare ValueError
+    from fuzzybrep import grid as grid_module
+    from fuzzybrep import rosmap
+    from fuzzybrep.commands.grid import check_grid_size
+    from fuzzybrep.errors import ScanValueError
+
+    scans = [Scan(np.array([1.0, 2.5, 6.0, 3.0]), np.linspace(-1.5, 1.5, 4), np.array(p), float(k), 80.0)
+             for k, p in enumerate(poses)]
+    cells = occupancy_grid(scans, resolution, max_usable=max_usable).cells
+    with pytest.MonkeyPatch.context() as mp:
+        for module in (rosmap, grid_module):
+            mp.setattr(module, "MAX_CELLS", cells)
+        check_grid_size("a.log", scans, resolution, max_usable)
+        occupancy_grid(scans, resolution, max_usable=max_usable)
+        for module in (rosmap, grid_module):
+            mp.setattr(module, "MAX_CELLS", cells - 1)
+        with pytest.raises(ScanValueError, match="a.log: a grid at resolution .* over these scans would have"):
+            check_grid_size("a.log", scans, resolution, max_usable)

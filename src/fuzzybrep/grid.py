@@ -216,14 +216,12 @@ def occupancy_grid(
     if len(b.length) == 0:
         raise ValueError("no beam marks anything: every beam has no return (try no_return_free > 0)")
     ex, ey = b.ex, b.ey
-    # cell k spans [k, k+1) * resolution in world coordinates: origin on the lattice
-    i0 = np.floor(min(b.ox.min(), ex.min()) / resolution) - 1
-    j0 = np.floor(min(b.oy.min(), ey.min()) / resolution) - 1
-    nx = int(np.floor(max(b.ox.max(), ex.max()) / resolution) - i0) + 2
-    ny = int(np.floor(max(b.oy.max(), ey.max()) / resolution) - j0) + 2
+    i0, j0, nx, ny = lattice(min(b.ox.min(), ex.min()), min(b.oy.min(), ey.min()),
+                             max(b.ox.max(), ex.max()), max(b.oy.max(), ey.max()), resolution)
     if nx * ny > MAX_CELLS:
-        raise ValueError(f"a grid of {nx} × {ny} cells at resolution {resolution:g} is too large "
+        raise ValueError(f"a grid of {nx:.0f} × {ny:.0f} cells at resolution {resolution:g} is too large "
                          f"(limit {MAX_CELLS} cells): give a coarser resolution")
+    nx, ny = int(nx), int(ny)
     ou, ov = b.ox / resolution - i0, b.oy / resolution - j0
     eu, ev = ex / resolution - i0, ey / resolution - j0
 
@@ -235,6 +233,18 @@ def occupancy_grid(
     lo = (hits * l_occ + free * l_free).clip(clamp[0], clamp[1]).astype(np.float32).reshape(ny, nx)
     return OccupancyGrid(lo, np.array([i0 * resolution, j0 * resolution]), float(resolution), free_thresh,
                          occupied_thresh)
+
+
+def lattice(xmin: float, ymin: float, xmax: float, ymax: float, resolution: float) -> tuple[float, float, float, float]:
+    """The grid over the box: its first cell's indices (i0, j0) and its size (nx, ny) in cells.
+
+    Cell k spans [k, k+1) * resolution in world coordinates, so the origin is on the lattice and
+    grids of different logs line up; one spare cell on each side. Grows with the box, so a box
+    holding every beam bounds the grid before the beams are traced (``commands.grid``)."""
+    # NumPy's floor, not math's: a resolution fine enough to overflow gives an infinite size to refuse
+    i0, j0 = np.floor(np.divide((xmin, ymin), resolution)) - 1
+    nx, ny = np.floor(np.divide((xmax, ymax), resolution)) - (i0, j0) + 2
+    return float(i0), float(j0), float(nx), float(ny)
 
 
 def traverse_counts(ou, ov, eu, ev, du, dv, nx: int, ny: int, workers: int | None = None) -> np.ndarray:

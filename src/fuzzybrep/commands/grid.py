@@ -31,27 +31,24 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
     The limit is the one ``export --ros`` keeps to. The scan positions' box widened by the longest
     beam holds every traced beam; only when that box is over the limit are the beams traced ends
     looked at, so that a grid which fits is never refused."""
-    import math
-
     import numpy as np
 
     from ..errors import ScanValueError
-    from ..grid import beams_of
+    from ..grid import beams_of, lattice
     from ..rosmap import MAX_CELLS
 
     xy = np.array([s.pose[:2] for s in scans])
-    lo, hi = xy.min(axis=0) - max(max_usable, no_return_free), xy.max(axis=0) + max(max_usable, no_return_free)
-    w, h = ((hi - lo) / resolution + 3).tolist()
-    if w * h <= MAX_CELLS:
+    reach = max(max_usable, no_return_free)
+    _, _, nx, ny = lattice(*(xy.min(axis=0) - reach), *(xy.max(axis=0) + reach), resolution)
+    if nx * ny <= MAX_CELLS:
         return
     b = beams_of(scans, max_usable, no_return_free)
     if len(b.length):
         x, y = np.concatenate((b.ox, b.ex)), np.concatenate((b.oy, b.ey))
-        w, h = (x.max() - x.min()) / resolution + 3, (y.max() - y.min()) / resolution + 3
-    if w * h > MAX_CELLS:
-        raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have about "
-                                        f"{math.ceil(w)} × {math.ceil(h)} cells (limit {MAX_CELLS}): give a "
-                                        f"coarser --resolution")
+        _, _, nx, ny = lattice(x.min(), y.min(), x.max(), y.max(), resolution)
+    if nx * ny > MAX_CELLS:
+        raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have "
+                                        f"{nx:.0f} × {ny:.0f} cells (limit {MAX_CELLS}): give a coarser --resolution")
 
 
 def run(args) -> int:
