@@ -214,3 +214,16 @@ def test_figure_in_a_format_matplotlib_does_not_write_fails_before_the_work(tmp_
     fails(capsys, ["plan", p, "--start", 1, 1, "--goal", 3, 3, "--plot", tmp_path / "path.xyz"],
           "path.xyz: cannot draw a figure as .xyz")
     assert sorted(f.name for f in tmp_path.iterdir()) == ["m.json"]
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_map_beyond_the_largest_coordinates_is_refused_where_it_is_read(tmp_path, capsys):
+    # before: overflow warnings, then "principal: ring has no area" (1e160) or a map that fuzzified
+    # and then refused every μ (1e70)
+    for size in (1e70, 1e160):
+        p = tmp_path / "big.geojson"
+        ring = [[0, 0], [size, 0], [size, size], [0, size], [0, 0]]
+        p.write_text(json.dumps({"type": "Polygon", "coordinates": [ring]}))
+        fails(capsys, ["fuzzify", p, "--out", tmp_path / "m.json", "--tme", "1"],
+              "big.geojson: polygon outer ring, vertex 2:", f"coordinate [{size:g}, 0.0] is beyond ±1e+60")
+    assert not (tmp_path / "m.json").exists()

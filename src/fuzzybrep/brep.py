@@ -37,6 +37,13 @@ def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
     return np.where(frontier | np.roll(frontier, 1), k, fm)
 
 
+#: maps with coordinates beyond ± this are refused (``validate_ring``; ``membership`` and the
+#: planner check the maps they are given too): μ (``sweep.band_parameter``) and GEOS's triangulation multiply four coordinates together, which
+#: passes the largest float (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the
+#: triangulation overflowed, Qhull failed and μ came out wrong), and distances to a point beyond
+#: 1e154 overflow
+LARGEST = 1e60
+
 @dataclass(frozen=True, eq=False)
 class Ring:
     """One closed boundary: the vertex table with its edge table implied.
@@ -217,6 +224,10 @@ def validate_ring(vertices: np.ndarray, name: str = "ring") -> None:
     bad = ~np.isfinite(v).all(axis=1)
     if bad.any():
         raise GeometryError("coordinate is not finite", ring=name, vertex=int(np.argmax(bad)) + 1)
+    far = (np.abs(v) > LARGEST).any(axis=1)
+    if far.any():
+        raise GeometryError(f"coordinate {v[np.argmax(far)].tolist()} is beyond ±{LARGEST:g}, where the map's "
+                            f"arithmetic overflows", ring=name, vertex=int(np.argmax(far)) + 1)
     dup = np.all(v == np.roll(v, -1, axis=0), axis=1)
     if dup.any():
         i = int(np.argmax(dup))

@@ -114,7 +114,7 @@ class PointNotFreeError(PlanError):
     which         "start" or "goal"
     point         (x, y) as given
     distance      how far it is from the safe region (None when the region is empty, or the
-                  point is beyond ±plan.LARGEST: far outside the map)
+                  point is beyond ±brep.LARGEST: far outside the map)
     nearest       the nearest point of the safe region (None in the same cases)
     alpha_needed  the smallest α at which it would be free with the same radius, when one
                   exists and is known (None otherwise)

@@ -27,7 +27,7 @@ from functools import cached_property
 import numpy as np
 import shapely
 
-from .brep import BRepMap, Ring, check_region, frontier_fm, validate_ring
+from .brep import LARGEST, BRepMap, Ring, check_region, frontier_fm, validate_ring
 from .errors import GeometryError, MapFileError, MembershipFunctionError
 from .mapfile import MapFile, read_map, write_map
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
@@ -41,12 +41,6 @@ METHODS = ("sweep", "exact")
 _SMALL_RING = 64
 #: arcs of the exact α-cuts: segments per quarter circle (GEOS buffer's quad_segs)
 EXACT_QUAD_SEGS = 32
-#: maps with coordinates beyond ± this are refused (by ``membership`` and the planner): μ
-#: (``sweep.band_parameter``) and GEOS's triangulation multiply four coordinates together, which
-#: passes the largest float (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the
-#: triangulation overflowed, Qhull failed and μ came out wrong), and distances to a point beyond
-#: 1e154 overflow
-LARGEST = 1e60
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
