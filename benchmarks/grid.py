@@ -37,6 +37,10 @@ LOGS = {"intel": "carmen/intel-corrected.log.gz", "aces": "carmen/aces-corrected
         "freiburg-079": "carmen/freiburg-079-corrected.log.gz"}
 
 
+#: where ``datasets`` looks, in order, for a folder holding carmen/ (said when it finds none)
+SEARCHED = "$FUZZYBREP_DATASETS, ../shared/datasets beside the checkout, /work/shared/datasets"
+
+
 def datasets() -> Path | None:
     here = Path(__file__).resolve().parents[1]
     for c in (os.environ.get("FUZZYBREP_DATASETS"), here.parent / "shared" / "datasets", "/work/shared/datasets"):
@@ -99,7 +103,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     d = datasets()
     if d is None:
-        print("no datasets found (set FUZZYBREP_DATASETS)", file=sys.stderr)
+        print(f"no folder holding carmen/ in any of {SEARCHED}: set FUZZYBREP_DATASETS", file=sys.stderr)
         return 1
     rows = []
     for name, rel in LOGS.items():

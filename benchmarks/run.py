@@ -49,7 +49,7 @@ from fuzzybrep.build import BuildConfig, build_map  # noqa: E402
 from fuzzybrep.fuzzy import compact_bytes, fuzzify  # noqa: E402
 from fuzzybrep.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
-from grid import LOGS, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
+from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 
 START, END = "<!-- benchmark:start -->", "<!-- benchmark:end -->"
 
@@ -265,7 +265,7 @@ def main(argv=None) -> int:
     d = Path(args.datasets) if args.datasets else datasets()
     logs = [(n, d / p) for n, p in LOGS.items() if (d / p).is_file()] if d else []
     if not logs:
-        print(f"no CARMEN logs under {d or '$FUZZYBREP_DATASETS or ../shared/datasets'}: nothing to measure", file=sys.stderr)
+        print(f"no CARMEN logs under {d or 'any of ' + SEARCHED}: nothing to measure", file=sys.stderr)
         return 1
     results = [bench_log(n, p, args.repeat) for n, p in logs]
     largest = max(logs, key=lambda lp: lp[1].stat().st_size)
