@@ -214,3 +214,36 @@ def test_figure_in_a_format_matplotlib_does_not_write_fails_before_the_work(tmp_
     fails(capsys, ["plan", p, "--start", 1, 1, "--goal", 3, 3, "--plot", tmp_path / "path.xyz"],
           "path.xyz: cannot draw a figure as .xyz")
     assert sorted(f.name for f in tmp_path.iterdir()) == ["m.json"]
+
+
+# ------------------------------------------------------------------------- JSON numbers too large for a float
+
+
+def huge_x(text: str, digits: int) -> str:
+    """``text`` with its first x coordinate written as an integer of ``digits`` digits."""
+    return re.sub(r'("x":\s*\[)[-0-9.eE+]+', lambda m: m.group(1) + "9" * digits, text, count=1)
+
+
+@pytest.mark.filterwarnings("error")  # a NumPy warning on the infinite vertex would be a second line
+@pytest.mark.parametrize("digits", [400, 5000])  # past a float; past Python's int-parsing limit
+def test_integer_too_large_for_a_float_in_a_map_file(tmp_path, capsys, digits):
+    # before: a traceback (OverflowError from NumPy, or ValueError "Exceeds the limit (4300 digits)");
+    # and an infinite vertex (1e400) printed NumPy's RuntimeWarning before the error
+    p = tmp_path / "m.json"
+    square_map(p)
+    p.write_text(huge_x(p.read_text(), digits))
+    fails(capsys, ["memory", p], "m.json: ", "principal, vertex 1: coordinate is not finite")
+    with pytest.raises(MapFileError, match="principal, vertex 1: coordinate is not finite"):
+        read_map(p)
+
+
+def test_integer_too_large_for_a_float_in_geojson_and_a_path(tmp_path, capsys):
+    big = "9" * 400
+    g = tmp_path / "g.geojson"
+    g.write_text('{"type": "Polygon", "coordinates": [[[0, 0], [%s, 0], [4, 4], [0, 4], [0, 0]]]}' % big)
+    fails(capsys, ["fuzzify", g, "--out", tmp_path / "m.json"], "g.geojson: ", "vertex 2: coordinate is not finite")
+    m = tmp_path / "m.json"
+    square_map(m)
+    path = tmp_path / "path.json"
+    path.write_text('{"path": [[1, 1], [%s, 2]]}' % big)
+    fails(capsys, ["view", m, "--html", tmp_path / "v.html", "--path", path], "path.json: path point 2 is not finite")

@@ -880,11 +880,14 @@ def validate_map(crisp: BRepMap) -> None:
         nxt[start + sizes - 1] = start
         finite = np.isfinite(V).all(axis=1)
         dup = np.all(V == V[nxt], axis=1)
-        x, y = V[:, 0], V[:, 1]
-        area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+        # a ring with a non-finite vertex is suspect already: 0 in its place keeps NumPy from
+        # warning (a second line before the error), and an area that overflows is not 0
+        Vf = np.where(finite[:, None], V, 0.0)
+        x, y = Vf[:, 0], Vf[:, 1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
         closed = np.concatenate([np.append(np.arange(a, a + n), a) for a, n in zip(start, sizes)])
-        simple = shapely.is_simple(shapely.linearrings(np.where(finite[:, None], V, 0.0)[closed],
-                                                       indices=ring_of[closed]))
+        simple = shapely.is_simple(shapely.linearrings(Vf[closed], indices=ring_of[closed]))
         suspect = (np.bincount(ring_of, weights=~finite | dup, minlength=len(rings)) > 0) | (area == 0) | ~simple
     for k in np.flatnonzero(suspect):  # the detailed message comes from validate_ring
         validate_ring(rings[k].vertices, names[k])

@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 
 from .errors import WorldError
-from .mapfile import write_atomic
+from .mapfile import loads_json, write_atomic
 
 #: glass lines may lie this far (m) off the free-space boundary; wall pieces shorter than twice
 #: this (the slivers a glass line's end cuts off the neighbouring wall) are dropped
@@ -197,7 +197,7 @@ def _feature(geom, props: dict) -> dict:
 def _read_geojson(path: str | os.PathLike) -> tuple[list[tuple[int, dict]], float]:
     """Features as (1-based index, {"geometry": shapely, "properties": dict}) and the unit scale."""
     try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        doc = loads_json(Path(path).read_text(encoding="utf-8"))
     except OSError as e:
         raise WorldError(f"cannot read: {e.strerror or e}", path) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
