@@ -247,3 +247,19 @@ def test_integer_too_large_for_a_float_in_geojson_and_a_path(tmp_path, capsys):
     path = tmp_path / "path.json"
     path.write_text('{"path": [[1, 1], [%s, 2]]}' % big)
     fails(capsys, ["view", m, "--html", tmp_path / "v.html", "--path", path], "path.json: path point 2 is not finite")
+
+
+# ------------------------------------------------------------------------- membership functions too wide
+
+
+def test_support_beyond_the_largest_map_is_refused(tmp_path, capsys):
+    # before: fuzzify wrote a map with TME 1e300, and tables, alpha-cut, export and plan crashed on it in GEOS
+    m = tmp_path / "m.json"
+    d = square_map(m)
+    fails(capsys, ["fuzzify", m, "--out", tmp_path / "f.json", "--tme", "1e300"],
+          "membership function 1 (triangular", "support ±1e+300 m reaches beyond ±1e+150 m")
+    assert not (tmp_path / "f.json").exists()
+    d["membership_functions"][0]["tme"] = 1e300
+    m.write_text(json.dumps(d))
+    for command in (["tables", m], ["alpha-cut", m, "--alpha", "0.5"]):
+        fails(capsys, command, "m.json: membership function 1 (triangular", "support ±1e+300 m reaches beyond")

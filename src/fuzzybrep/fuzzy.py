@@ -47,6 +47,11 @@ EXACT_QUAD_SEGS = 32
 #: triangulation overflowed, Qhull failed and μ came out wrong), and distances to a point beyond
 #: 1e154 overflow
 LARGEST = 1e60
+#: membership functions with a support wider than ± this are refused (by ``fuzzify``): their
+#: support polygons and α-cuts square distances, which passes the largest float from about
+#: 1.3e154 on (a TME of 1e154 ended in OverflowError, 1e160 in GEOS exceptions); up to 1e150 the
+#: tables, α-cuts and plans still work
+WIDEST_SUPPORT = 1e150
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
@@ -764,7 +769,7 @@ class FuzzyBRepMap:
         try:
             # read_map validated the rings: checking them again would double the cost of a load
             return fuzzify(m.crisp, table, tme=tme if table is None else None, validate=False)
-        except GeometryError as e:  # an FM index with no function in the file's table
+        except (GeometryError, MembershipFunctionError) as e:  # an FM index with no function, a support too wide
             raise MapFileError(path, str(e)) from None
 
     @classmethod
@@ -834,6 +839,7 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
         k = max(table.indices) + 1
         table = MembershipTable({**dict(table), k: frontier_mf})
         crisp = crisp.with_rings([Ring(r.vertices, r.kinds, frontier_fm(r.kinds, r.fm, k)) for r in crisp.rings])
+    _check_reach(table, crisp.unit)
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)
@@ -859,6 +865,17 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
             arr.setflags(write=False)
         lines.append(ParametricLines(*parts))
     return FuzzyBRepMap(crisp, table, tuple(lines))
+
+
+def _check_reach(table: MembershipTable, unit: str) -> None:
+    """MembershipFunctionError if a function's support reaches beyond ±WIDEST_SUPPORT (a TME of
+    1e300 was fuzzified and written, and every command reading the map then crashed)."""
+    for k, f in table:
+        reach = max(f.support_in, f.support_out)
+        if reach > WIDEST_SUPPORT:
+            raise MembershipFunctionError(f"membership function {k} ({f.formula()}): its support ±{reach:g} {unit} "
+                                          f"reaches beyond ±{WIDEST_SUPPORT:g} {unit}, farther than fuzzybrep's "
+                                          f"arithmetic holds")
 
 
 def validate_map(crisp: BRepMap) -> None:
