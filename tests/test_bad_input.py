@@ -263,3 +263,62 @@ def test_support_beyond_the_largest_map_is_refused(tmp_path, capsys):
     m.write_text(json.dumps(d))
     for command in (["tables", m], ["alpha-cut", m, "--alpha", "0.5"]):
         fails(capsys, command, "m.json: membership function 1 (triangular", "support ±1e+300 m reaches beyond")
+
+
+# ------------------------------------------------------------------------- a corrupt range or pose far from the rest
+
+
+def room_log(path, corrupt=None) -> None:
+    """Four scans of a 3 m room; ``corrupt(k, ranges, pose)`` may damage scan k (line k + 1)."""
+    lines = []
+    for k in range(4):
+        ranges, pose = [1.5] * 9 + [9.0], [0.1 * k, 0.0, 0.0]
+        if corrupt:
+            corrupt(k, ranges, pose)
+        lines.append(flaser(ranges, tuple(pose), k))
+    path.write_text("".join(lines))
+
+
+def far_range(k, ranges, pose):
+    if k == 2:
+        ranges[3] = 1e5  # a return 100 km away, below the log's largest range (so not "no return")
+    if k == 3:
+        ranges[9] = 1e6
+
+
+def far_pose(k, ranges, pose):
+    if k == 1:
+        pose[0] = 1e5
+
+
+def pose_beyond_any_grid(k, ranges, pose):
+    if k == 1:
+        pose[0] = 1e300
+
+
+@pytest.mark.parametrize("corrupt, words", [
+    # before: NumPy failing to allocate 10 TiB (or an IndexError for 1e300), after reading the whole log
+    (far_range, ["a.log:3: beam 4's return lies 1e+05 m from the median scan position",
+                 "an evidence grid of about 1732059 × 1000184 cells at 0.05 m (limit 40000000"]),
+    (far_pose, ["a.log:2: the scan's position (100000, 0) lies 1e+05 m from the median scan position"]),
+    (pose_beyond_any_grid, ["a.log:2: the scan's position (1e+300, 0) lies 1e+300 m from the median scan position",
+                            "about 2e+301 × 63 cells"]),
+])
+def test_scan_far_from_the_rest_is_named(tmp_path, capsys, corrupt, words):
+    log = tmp_path / "a.log"
+    room_log(log, corrupt)
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt?")
+    assert not (tmp_path / "m.json").exists()
+    if corrupt is far_range:  # evaluate builds its map alike (a far pose stops it earlier, at its grid's size)
+        fails(capsys, ["evaluate", log], *words)
+
+
+def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
+    # before: an IndexError: at 1e300 a float cannot tell one 5 cm cell from the next
+    log = tmp_path / "a.log"
+    room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e300 + k))
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"],
+          "a.log:1: the scan's position (1e+300, 0) lies 1e+300 m from (0, 0): a float places a 0.05 m cell "
+          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt?")
+    room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
+    assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0

@@ -25,6 +25,7 @@ from .evidence import EvidenceConfig, Rays
 from .membership import DEFAULT_TME_M
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
 from .scans.filters import BeamConfig, classify_all
+from .errors import ScanValueError
 from .scans.scan import Scan
 
 
@@ -87,6 +88,8 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         beams = classify_all(scans, config.beams, config.polygon)
     with timer("evidence"):
         rays = rays_of(scans, beams)
+        if config.use_evidence:
+            check_extent(scans, rays, config.evidence.cell, config.unit)
         ev = evidence.gather(rays, config.evidence) if config.use_evidence else None
         free = evidence.clip(rays, ev, config.evidence) if ev is not None else rays.length
         free, status, clipped = _split_free(scans, beams, free)
@@ -120,6 +123,44 @@ def rays_of(scans: Sequence[Scan], beams) -> Rays:
     r = np.concatenate([s.ranges for s in scans])
     hit = np.concatenate([s.returns for s in scans])
     return Rays(ox, oy, np.cos(ang), np.sin(ang), length, t, hit, r)
+
+
+def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m") -> None:
+    """ScanValueError naming the scan (and the beam) that lies farthest out when the evidence grid
+    over ``rays`` would hold more than evidence.MAX_CELLS cells (farthest from the median scan
+    position), or reach beyond evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a
+    corrupt range or pose otherwise ended in NumPy failing to allocate terabytes, or an IndexError."""
+    origin, nx, ny = evidence.grid_frame(rays, cell)
+    reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
+    if nx * ny > evidence.MAX_CELLS:
+        centre, where = np.median([s.pose[:2] for s in scans], axis=0), "the median scan position"
+        why = f"an evidence grid of about {_count(nx)} × {_count(ny)} cells at {cell:g} {unit} " \
+              f"(limit {evidence.MAX_CELLS}) would hold it"
+    elif reach > evidence.MAX_CELLS_FROM_ZERO * cell:
+        centre, where = np.zeros(2), "(0, 0)"
+        why = f"a float places a {cell:g} {unit} cell of the evidence grid only within " \
+              f"±{evidence.MAX_CELLS_FROM_ZERO * cell:.3g} {unit} of (0, 0)"
+    else:
+        return
+    hits = np.flatnonzero(rays.hit)
+    d_pose = np.hypot(rays.ox - centre[0], rays.oy - centre[1])
+    d_hit = np.full(len(d_pose), -np.inf)
+    d_hit[hits] = np.hypot(rays.hx - centre[0], rays.hy - centre[1])
+    ray = int(np.argmax(np.maximum(d_hit, d_pose)))
+    ends = np.cumsum([len(s.ranges) for s in scans])
+    k = int(np.searchsorted(ends, ray, side="right"))
+    s = scans[k]
+    if d_pose[ray] >= d_hit[ray] / 2:  # the scan itself lies far out, not just what one beam saw
+        what, d = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})", d_pose[ray]
+    else:
+        what, d = f"beam {ray - (int(ends[k - 1]) if k else 0) + 1}'s return", d_hit[ray]
+    raise ScanValueError(s.source or f"scan {k}", None,
+                         f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+
+
+def _count(n: float) -> str:
+    """A cell count for a message: every digit while it is readable, else three."""
+    return f"{n:.0f}" if n < 1e12 else f"{n:.3g}"
 
 
 def _split_free(scans, beams, free: np.ndarray):
