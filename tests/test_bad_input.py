@@ -322,3 +322,19 @@ def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
           "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt?")
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
     assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+
+
+# ------------------------------------------------------------------------- absurdly large sizes
+
+
+def test_absurdly_large_cell_or_tolerance_is_not_a_traceback(tmp_path, capsys):
+    # before: OverflowError from a float's ** (the area of a 1e300 m cell; (simplify / 10)²)
+    log, m = tmp_path / "a.log", tmp_path / "m.json"
+    room_log(log)
+    assert cli.main(["build", str(log), "--out", str(m), "--quiet", "--simplify", "1e300"]) == 0
+    square_map(m)
+    assert cli.main(["grid", str(log), "--out", str(tmp_path / "g"), "--resolution", "1e300"]) == 0
+    assert "cells at 1e+300 m" in capsys.readouterr().out
+    assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "1e300"]) == 0
+    out = capsys.readouterr().out
+    assert "cells of 1e+300 m, free area 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)

@@ -33,7 +33,7 @@ from scipy import ndimage
 from .brep import FRONTIER, BRepMap
 from .geojson import alpha_cut_collection
 from .mapfile import write_atomic
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, write_ros_map
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cells_area, write_ros_map
 
 #: default levels of ``fuzzybrep export --geojson`` and ``--svg``
 DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -122,7 +122,7 @@ class MembershipRaster:
         return self.image.shape  # type: ignore[return-value]
 
     def free_area(self) -> float:
-        return float(self.free.sum()) * self.resolution ** 2
+        return cells_area(int(self.free.sum()), self.resolution)
 
 
 def grey_levels(mu: np.ndarray, free: np.ndarray, occupied: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cells_area
 from .scans.scan import Scan
 
 
@@ -127,7 +127,7 @@ class OccupancyGrid:
 
     def free_area(self) -> float:
         """Area of the free cells (map unit²)."""
-        return float(np.count_nonzero(self.free())) * self.resolution**2
+        return cells_area(int(np.count_nonzero(self.free())), self.resolution)
 
     # ------------------------------------------------------------------ queries at world points
     def cell_index(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -89,6 +89,12 @@ class RosMap:
 # ---------------------------------------------------------------------------- writing
 
 
+def cells_area(n: int, resolution: float) -> float:
+    """Area of n cells. n·r·r, not n·r**2: a float's ** raises OverflowError (--resolution 1e300)
+    where * gives inf; and no cells have no area, not NaN (0·inf)."""
+    return n * resolution * resolution if n else 0.0
+
+
 def pgm_bytes(image: np.ndarray, comment: str | None = None) -> bytes:
     """A binary (P5) 8-bit PGM of a uint8 image, row 0 first (the top)."""
     img = np.asarray(image)
