@@ -122,6 +122,8 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     # before: the grid was written outside --out (../x.pgm), or as ".yaml" and ".yaml.pgm"
     (["grid", "LOG", "--out", "G", "--name", "../x"], "argument --name: name must be a plain file name"),
     (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
+    # before: accepted, and Table 5.3 gave a grid of 0 cells for the map
+    (["memory", "MAP", "--cell", "inf"], "argument --cell: cell size must be a positive finite number, got inf"),
 ])
 def test_bad_options_are_usage_errors(capsys, argv, words):
     with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written

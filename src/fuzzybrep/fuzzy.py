@@ -737,7 +737,7 @@ class FuzzyBRepMap:
                                  compact_bytes(self)))
         x0, y0, x1, y1 = self.crisp_geometry.bounds
         for c in cells:
-            nc = math.ceil((x1 - x0) / c - 1e-9) * math.ceil((y1 - y0) / c - 1e-9)
+            nc = _cell_count(x1 - x0, c, self.unit) * _cell_count(y1 - y0, c, self.unit)
             rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {self.unit} over the bounding box "
                                   f"({x1 - x0:.4g}×{y1 - y0:.4g} {self.unit})", nc, 4 * nc))
         return rows
@@ -955,12 +955,25 @@ def memory_table(n_vertices: int, n_edges: int, area: float, cells=(0.3, 0.2, 0.
     numbers = THESIS_NUMBERS_PER_VERTEX * n_vertices + THESIS_NUMBERS_PER_EDGE * n_edges
     rows = [MemoryRow("fuzzy B-rep, thesis accounting (10 per vertex + 6 per edge)", numbers, BYTES_PER_NUMBER * numbers)]
     for c in cells:
-        if not c > 0:
-            raise ValueError(f"cell size must be positive, got {c!r}")
-        nc = math.ceil(area / (c * c) - 1e-9)
+        nc = _cell_count(area, c, unit, dims=2)
         rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {unit} over the map's area ({area:.6g} {unit}²)", nc,
                               BYTES_PER_NUMBER * nc))
     return rows
+
+
+def _cell_count(size: float, c: float, unit: str, dims: int = 1) -> int:
+    """⌈size / c^dims⌉: the cells of ``c``-sized cells along a side (dims 1) or over an area (2);
+    GeometryError for a cell size with no such grid: not positive or infinite (0 cells), or so
+    small that the count is no finite float (before: ZeroDivisionError, or OverflowError from ceil)."""
+    if not 0 < c < math.inf:
+        raise GeometryError(f"occupancy grid of {c:g} {unit} cells: the cell size must be a positive finite number")
+    n = size
+    for _ in range(dims):  # divided once per side: c * c underflows to 0 below 1e-162
+        n /= c
+    if not math.isfinite(n):
+        raise GeometryError(f"occupancy grid of {c:g} {unit} cells: too many cells to count (more than "
+                            f"a float holds); the cell size is too small")
+    return math.ceil(n - 1e-9)
 
 
 def compact_bytes(fuzzy: FuzzyBRepMap) -> int:
