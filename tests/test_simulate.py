@@ -383,3 +383,20 @@ def test_simulate_command_needs_a_route_for_a_custom_world(tmp_path, monkeypatch
     assert "16.0 m, 5 stops" in capsys.readouterr().out
     assert cli.main(["simulate", "--glass-pass", "0.8", "--glass-reflect", "0.5"]) == 2
     assert "bad robot or laser option" in capsys.readouterr().err
+
+
+def test_stop_spacing_longer_than_a_closed_route_still_stops_at_the_start(capsys):
+    # before: no stop at all (the start was dropped as "near the end"), then an IndexError in simulate_run
+    route = builtin_route(1000.0)
+    assert route.closed and route.stop_distances().tolist() == [0.0]
+    assert cli.main(["simulate", "--spacing", "1000", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scans"] == 2  # one stop: its two 180° scans
+
+
+def test_stop_spacing_too_fine_for_memory_is_refused(capsys):
+    # before: NumPy failing to allocate a terabyte for 1.4e11 stops
+    with pytest.raises(WorldError, match=r"stop spacing 1e-09 m gives 1\.36e\+11 stops along the route's 136 m "
+                                         r"\(at most 100000\)"):
+        builtin_route(1e-9)
+    assert cli.main(["simulate", "--spacing", "1e-9"]) == 2
+    assert "simulate: error: stop spacing 1e-09 m gives" in capsys.readouterr().err

@@ -286,6 +286,11 @@ def builtin_floor() -> World:
 # ----------------------------------------------------------------------------------- route
 
 
+#: stops a route may have: each is two scans cast and held in memory (136 000 ran for minutes,
+#: 1.4e11 asked NumPy for a terabyte; the built-in route has 27)
+MAX_STOPS = 100_000
+
+
 @dataclass(frozen=True, eq=False)
 class Route:
     """Waypoints (n, 2) in metres, driven in order, and a stop every ``spacing`` metres.
@@ -313,6 +318,10 @@ class Route:
             raise WorldError(f"route waypoint {int(np.argmax(same)) + 2} repeats the one before")
         if not (math.isfinite(self.spacing) and self.spacing > 0):
             raise WorldError(f"stop spacing must be positive, got {self.spacing!r}")
+        length = float(np.hypot(*np.diff(w, axis=0).T).sum())
+        if length / self.spacing > MAX_STOPS:
+            raise WorldError(f"stop spacing {self.spacing:g} m gives {length / self.spacing:.3g} stops along the "
+                             f"route's {length:.3g} m (at most {MAX_STOPS}): give a wider spacing")
         w.setflags(write=False)
         object.__setattr__(self, "waypoints", w)
 
@@ -338,8 +347,8 @@ class Route:
     def stop_distances(self) -> np.ndarray:
         """Distance along the route of every stop."""
         s = np.arange(0.0, self.length + 1e-9, self.spacing)
-        if self.closed:
-            s = s[s < self.length - self.spacing / 2]
+        if self.closed:  # the first stop stays, even with a spacing longer than the route
+            s = s[(s == 0) | (s < self.length - self.spacing / 2)]
         return s
 
     def poses_at(self, s: np.ndarray) -> np.ndarray:
