@@ -340,3 +340,19 @@ def test_absurdly_large_cell_or_tolerance_is_not_a_traceback(tmp_path, capsys):
     assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "1e300"]) == 0
     out = capsys.readouterr().out
     assert "cells of 1e+300 m, free area 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
+
+
+# ------------------------------------------------------------------------- scans that bound no free space
+
+
+def test_scans_with_no_free_space_name_the_scans(tmp_path, capsys):
+    # before: "the map has no free space with area", naming neither the log nor the scans
+    one = tmp_path / "one.csv"
+    one.write_text("scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n")
+    fails(capsys, ["build", one, "--out", tmp_path / "m.json", "--quiet"],
+          "the 1 scan one.csv:2 bound no free space with area above 0.05 m²")
+    log = tmp_path / "a.log"
+    room_log(log)
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet", "--max-usable", "1e-9"],
+          "the 4 scans a.log:1 to a.log:4 bound no free space with area above 0.05 m²", "max_usable 1e-09 m")
+    assert not (tmp_path / "m.json").exists()

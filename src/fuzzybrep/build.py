@@ -25,7 +25,7 @@ from .evidence import EvidenceConfig, Rays
 from .membership import DEFAULT_TME_M
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
 from .scans.filters import BeamConfig, classify_all
-from .errors import ScanValueError
+from .errors import GeometryError, ScanValueError
 from .scans.scan import Scan
 
 
@@ -107,6 +107,10 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
         geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
+        if geom.is_empty:
+            raise GeometryError(f"{_named(scans)} bound no free space with area above {config.min_piece_area:g} "
+                                f"{config.unit}² (too few beams with a return, or max_usable "
+                                f"{config.beams.max_usable:g} {config.unit} too short)")
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):
         crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp
@@ -156,6 +160,12 @@ def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m"
         what, d = f"beam {ray - (int(ends[k - 1]) if k else 0) + 1}'s return", d_hit[ray]
     raise ScanValueError(s.source or f"scan {k}", None,
                          f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+
+
+def _named(scans: Sequence[Scan]) -> str:
+    """The scans for a message, by where they came from ("file:line"): which log a failure is about."""
+    a, b = scans[0].source or "scan 1", scans[-1].source or f"scan {len(scans)}"
+    return f"the 1 scan {a}" if len(scans) == 1 else f"the {len(scans)} scans {a} to {b}"
 
 
 def _count(n: float) -> str:
