@@ -466,3 +466,18 @@ def test_loading_a_crisp_map_needs_a_tme(tmp_path):
 def test_table_from_mapping():
     fz = fuzzify(square(), MembershipTable({1: Triangular(0.1)}))
     assert fz.table.indices == [1]
+
+
+def test_bad_arguments_raise_the_packages_errors():
+    # before: bare ValueErrors (while offset_vertices already raised MembershipFunctionError for α)
+    fz = fuzzify(square(), tme=0.1)
+    for bad in (math.nan, 2.0, "x", None):
+        with pytest.raises(MembershipFunctionError, match="α must"):
+            fz.alpha_cut(bad)
+    with pytest.raises(MembershipFunctionError, match=r"α must lie in \[0, 1\], got nan"):
+        fz.approximation_error([math.nan])
+    with pytest.raises(GeometryError, match="point 2 is not finite"):
+        fz.membership([[1.0, 1.0], [math.nan, 1.0]])
+    with pytest.raises(GeometryError, match=r"points must be an \(m, 2\) array, got shape \(2,\)"):
+        fz.membership([1.0, 1.0])
+    assert fz.membership([]).shape == (0,)  # no points: no grades (before: "got shape (0,)")

@@ -20,7 +20,7 @@ import shapely.affinity
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fuzzybrep.brep import BRepMap
+from fuzzybrep.brep import BRepMap, Region, Ring
 from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
 from fuzzybrep import plan as plan_module
@@ -786,3 +786,16 @@ def test_real_map_plan_command(real, capsys):
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert shapely.covers(shapely.buffer(pl.safe, TOL), shapely.LineString(out["path"]))
+
+
+def test_bad_planner_arguments_raise_plan_errors():
+    # before: bare ValueErrors from the planner's checks of a radius or a point
+    fz = fuzzify(BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)])),)), tme=0.1)
+    for radius in (-1.0, math.nan, "x"):
+        with pytest.raises(PlanError, match="radius must be"):
+            planner(fz, 0.0, radius)
+    pl = planner(fz, 0.0, 0.1)
+    with pytest.raises(PlanError, match=r"goal must be a point \(x, y\) of two finite numbers, got \[nan, 1.0\]"):
+        pl.plan((1, 1), [math.nan, 1.0])
+    with pytest.raises(PlanError, match=r"start must be a point \(x, y\)"):
+        pl.plan("here", (2, 2))

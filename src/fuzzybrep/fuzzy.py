@@ -545,12 +545,12 @@ class FuzzyBRepMap:
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         p = np.asarray(points, dtype=np.float64)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"points must be an (m, 2) array, got shape {p.shape}")
-        if len(p) == 0:
+        if p.size == 0:  # no points ([] as well as an empty (0, 2) array): no grades
             return np.zeros(0)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise GeometryError(f"points must be an (m, 2) array, got shape {p.shape}")
         if not np.isfinite(p).all():
-            raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
+            raise GeometryError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
         if self._rounding * 1e12 > LARGEST:  # the map's size (an O(1) check: it is cached)
             raise GeometryError(f"the map is {self._rounding * 1e12:.3g} {self.unit} across: μ is computed "
                                 f"for maps up to {LARGEST:g} {self.unit} across, beyond which its arithmetic overflows")
@@ -790,9 +790,9 @@ def _check_alpha(alpha) -> float:
     try:
         a = float(alpha)
     except (TypeError, ValueError):
-        raise ValueError(f"α must be a number in [0, 1], got {alpha!r}") from None
-    if not 0.0 <= a <= 1.0:
-        raise ValueError(f"α must lie in [0, 1], got {alpha!r}")
+        raise MembershipFunctionError(f"α must be a number in [0, 1], got {alpha!r}") from None
+    if not 0.0 <= a <= 1.0:  # a membership grade, as membership._alpha says for offset_vertices
+        raise MembershipFunctionError(f"α must lie in [0, 1], got {alpha!r}")
     return a
 
 
