@@ -356,3 +356,13 @@ def test_scans_with_no_free_space_name_the_scans(tmp_path, capsys):
     fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet", "--max-usable", "1e-9"],
           "the 4 scans a.log:1 to a.log:4 bound no free space with area above 0.05 m²", "max_usable 1e-09 m")
     assert not (tmp_path / "m.json").exists()
+
+
+def test_grid_too_large_gives_its_size_in_few_digits(tmp_path, capsys):
+    # before: "a grid of 4000000000000000210019041020817680994817874324432636619663416462047209831955632783...
+    # (300 digits) × ... cells"
+    m = tmp_path / "m.json"
+    square_map(m)
+    err = fails(capsys, ["export", m, "--ros", tmp_path / "r", "--resolution", "1e-300"],
+                "m.yaml: a grid of 4.2e+300 × 4.2e+300 cells at 1e-300 m is too large (limit 40000000 cells)")
+    assert len(err.replace(str(tmp_path), "")) < 160, err

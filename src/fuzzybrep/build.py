@@ -21,11 +21,12 @@ import shapely
 
 from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
+from .errors import GeometryError, ScanValueError
 from .evidence import EvidenceConfig, Rays
 from .membership import DEFAULT_TME_M
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
+from .rosmap import cell_count_text
 from .scans.filters import BeamConfig, classify_all
-from .errors import GeometryError, ScanValueError
 from .scans.scan import Scan
 
 
@@ -138,7 +139,7 @@ def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m"
     reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
     if nx * ny > evidence.MAX_CELLS:
         centre, where = np.median([s.pose[:2] for s in scans], axis=0), "the median scan position"
-        why = f"an evidence grid of about {_count(nx)} × {_count(ny)} cells at {cell:g} {unit} " \
+        why = f"an evidence grid of about {cell_count_text(nx)} × {cell_count_text(ny)} cells at {cell:g} {unit} " \
               f"(limit {evidence.MAX_CELLS}) would hold it"
     elif reach > evidence.MAX_CELLS_FROM_ZERO * cell:
         centre, where = np.zeros(2), "(0, 0)"
@@ -166,11 +167,6 @@ def _named(scans: Sequence[Scan]) -> str:
     """The scans for a message, by where they came from ("file:line"): which log a failure is about."""
     a, b = scans[0].source or "scan 1", scans[-1].source or f"scan {len(scans)}"
     return f"the 1 scan {a}" if len(scans) == 1 else f"the {len(scans)} scans {a} to {b}"
-
-
-def _count(n: float) -> str:
-    """A cell count for a message: every digit while it is readable, else three."""
-    return f"{n:.0f}" if n < 1e12 else f"{n:.3g}"
 
 
 def _split_free(scans, beams, free: np.ndarray):

@@ -32,7 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cells_area
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area
 from .scans.scan import Scan
 
 
@@ -222,7 +222,7 @@ def occupancy_grid(
     nx = int(np.floor(max(b.ox.max(), ex.max()) / resolution) - i0) + 2
     ny = int(np.floor(max(b.oy.max(), ey.max()) / resolution) - j0) + 2
     if nx * ny > MAX_CELLS:
-        raise ValueError(f"a grid of {nx} × {ny} cells at resolution {resolution:g} is too large "
+        raise ValueError(f"a grid of {cell_count_text(nx)} × {cell_count_text(ny)} cells at resolution {resolution:g} is too large "
                          f"(limit {MAX_CELLS} cells): give a coarser resolution")
     ou, ov = b.ox / resolution - i0, b.oy / resolution - j0
     eu, ev = ex / resolution - i0, ey / resolution - j0

@@ -89,6 +89,12 @@ class RosMap:
 # ---------------------------------------------------------------------------- writing
 
 
+def cell_count_text(n: float) -> str:
+    """A grid's cells along a side, for a message: every digit while it is readable, else three
+    (an absurd resolution made a count of 300 digits)."""
+    return f"{n:.0f}" if n < 1e12 else f"{n:.3g}"
+
+
 def cells_area(n: int, resolution: float) -> float:
     """Area of n cells. n·r·r, not n·r**2: a float's ** raises OverflowError (--resolution 1e300)
     where * gives inf; and no cells have no area, not NaN (0·inf)."""
