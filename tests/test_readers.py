@@ -72,6 +72,9 @@ def test_carmen_explicit_max_range(tmp_path):
         ("FLASER x 1.0\n", "n", ScanFormatError, "not an integer"),
         ("FLASER 2 1.0 2.0 1 2 nan 1 2 3 4 h 4\n", "theta", ScanValueError, "not finite"),
         ("FLASER 2 1.0 2.0 1 2 3 1 2 3 oops h 4\n", "timestamp", ScanFormatError, "not a number"),
+        # cut after the host: before, "beam count 2 does not match the line's 12 fields", blaming the count
+        ("FLASER 2 1.0 2.0 1 2 3 1 2 3 4 host\n", None, ScanFormatError,
+         "truncated: 12 fields, ending at the host 'host'; a FLASER line with 2 beams has 13, the logger timestamp last"),
     ],
 )
 def test_carmen_bad_lines_name_file_line_and_field(tmp_path, line, field, cls, words):
