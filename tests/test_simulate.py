@@ -400,3 +400,13 @@ def test_stop_spacing_too_fine_for_memory_is_refused(capsys):
         builtin_route(1e-9)
     assert cli.main(["simulate", "--spacing", "1e-9"]) == 2
     assert "simulate: error: stop spacing 1e-09 m gives" in capsys.readouterr().err
+
+
+def test_route_outside_the_world_names_the_route_file(tmp_path, capsys):
+    # before: "route waypoint 1 [0.0, 0.0] is not in the free space", naming no file
+    route = tmp_path / "r.csv"
+    route.write_text("x,y\n0,0\n100,100\n")
+    for command in (["simulate", "--route", route], ["demo", "--out", tmp_path / "d", "--route", route]):
+        assert cli.main([str(a) for a in command]) == 2
+        err = capsys.readouterr().err
+        assert f"error: {route}: route waypoint 1 [0.0, 0.0] is not in the free space (world: built-in floor)" in err, err
