@@ -366,3 +366,33 @@ def test_grid_too_large_gives_its_size_in_few_digits(tmp_path, capsys):
     err = fails(capsys, ["export", m, "--ros", tmp_path / "r", "--resolution", "1e-300"],
                 "m.yaml: a grid of 4.2e+300 × 4.2e+300 cells at 1e-300 m is too large (limit 40000000 cells)")
     assert len(err.replace(str(tmp_path), "")) < 160, err
+
+
+# ------------------------------------------------------------------------- CSV files saved with a byte-order mark
+
+
+BOM = "\ufeff"  # what a spreadsheet's "CSV UTF-8" puts before the header
+
+
+def test_csv_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
+    # before: "header lacks column(s) scan" (for a header that has it), "header must be direction,x,y,
+    # got '\ufeffdirection,x,y'", "line 1: not a number pair: '\ufeffx,y'"
+    from fuzzybrep.odometry import read_runs
+    from fuzzybrep.scans.csvscans import read_csv
+    from fuzzybrep.world import Route
+
+    scans = tmp_path / "s.csv"
+    scans.write_text(BOM + "scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n0,0,0,0,0,0.1,1\n", encoding="utf-8")
+    assert len(read_csv(scans)) == 1
+    runs = tmp_path / "runs.csv"
+    runs.write_text(BOM + "direction,x,y\ncw,1,2\nccw,3,4\n", encoding="utf-8")
+    assert len(read_runs(runs)) == 2
+    route = tmp_path / "route.csv"
+    route.write_text(BOM + "x,y\n0,0\n1,0\n", encoding="utf-8")
+    assert Route.from_file(route).waypoints.tolist() == [[0, 0], [1, 0]]
+    pts = tmp_path / "pts.csv"
+    pts.write_text(BOM + "7,8\n", encoding="utf-8")  # no header: the mark must not spoil the first number
+    m = tmp_path / "m.json"
+    square_map(m)
+    assert cli.main(["membership", str(m), "--points", str(pts)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith("7.0,8.0,")

@@ -146,7 +146,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     least one point."""
     path = Path(path)
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
             rows = list(csv.reader(fh))
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None

@@ -384,7 +384,7 @@ class Route:
             except (WorldError, TypeError, ValueError) as e:
                 raise WorldError(getattr(e, "reason", str(e)), path, k) from None
         try:
-            text = path.read_text(encoding="utf-8")
+            text = path.read_text(encoding="utf-8-sig")  # -sig: a spreadsheet's byte-order mark
         except (OSError, UnicodeDecodeError) as e:
             raise WorldError(f"cannot read: {getattr(e, 'strerror', None) or e}", path) from None
         pts = []
