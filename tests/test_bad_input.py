@@ -396,3 +396,14 @@ def test_csv_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
     square_map(m)
     assert cli.main(["membership", str(m), "--points", str(pts)]) == 0
     assert capsys.readouterr().out.splitlines()[-1].startswith("7.0,8.0,")
+
+
+def test_evaluate_with_a_grid_too_coarse_for_any_free_cell(tmp_path, capsys):
+    # before: "free_iou": NaN in --json (not JSON), and "IoU ...: nan" in the text
+    log = tmp_path / "a.log"
+    room_log(log)
+    assert cli.main(["evaluate", str(log), "--resolution", "1e300", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))["free_iou"] is None
+    assert cli.main(["evaluate", str(log), "--resolution", "1e300"]) == 0
+    assert "free-space IoU with the 1e+300 grid: undefined (no free space in either at the cell centres)" in \
+        capsys.readouterr().out
