@@ -407,3 +407,14 @@ def test_evaluate_with_a_grid_too_coarse_for_any_free_cell(tmp_path, capsys):
     assert cli.main(["evaluate", str(log), "--resolution", "1e300"]) == 0
     assert "free-space IoU with the 1e+300 grid: undefined (no free space in either at the cell centres)" in \
         capsys.readouterr().out
+
+
+def test_export_checks_every_output_before_writing_any(tmp_path, capsys):
+    # before: the GeoJSON, SVG and compact map were written, then --ros failed on its folder
+    m = tmp_path / "m.json"
+    square_map(m)
+    (tmp_path / "afile").write_text("x")
+    fails(capsys, ["export", m, "--geojson", tmp_path / "a.geojson", "--svg", tmp_path / "a.svg", "--compact",
+                   tmp_path / "a.fbrc", "--ros", tmp_path / "afile"], "afile/m.yaml: cannot write: ", "afile is a file")
+    fails(capsys, ["export", m, "--geojson", tmp_path / "a.geojson", "--svg", tmp_path], "cannot write: it is a folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "m.json"]
