@@ -410,3 +410,11 @@ def test_route_outside_the_world_names_the_route_file(tmp_path, capsys):
         assert cli.main([str(a) for a in command]) == 2
         err = capsys.readouterr().err
         assert f"error: {route}: route waypoint 1 [0.0, 0.0] is not in the free space (world: built-in floor)" in err, err
+
+
+def test_simulate_checks_every_output_before_writing_any(tmp_path, capsys):
+    # before: the scans were written, then --world-out failed on a folder
+    assert cli.main(["simulate", "--out", str(tmp_path / "s.npz"), "--umbmark-out", str(tmp_path / "u.csv"),
+                     "--world-out", str(tmp_path)]) == 2
+    assert f"{tmp_path}: cannot write: it is a folder" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

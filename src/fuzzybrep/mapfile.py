@@ -191,6 +191,14 @@ def check_writable(path: str | os.PathLike) -> None:
         raise MapFileError(path, f"cannot write: folder {folder} is not writable")
 
 
+def check_outputs(*paths: str | os.PathLike | None) -> None:
+    """``check_writable`` for every output a command was given (None: not asked for), before it
+    writes any: a command whose last output cannot be written must not leave the first ones."""
+    for p in paths:
+        if p is not None:
+            check_writable(p)
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     """Write bytes so that the file is either the old one or the complete new one, never half."""
     path = Path(path)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MapFileError
     from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
                           write_geojson, write_ros)
-    from ..mapfile import check_writable, write_atomic
+    from ..mapfile import check_outputs, write_atomic
     from ..svg import svg_document
 
     if not (args.geojson or args.ros or args.svg or args.compact):
@@ -56,8 +56,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     name = args.name or Path(args.map).stem
     ros = [Path(args.ros) / f"{name}.{ext}" for ext in ("yaml", "pgm")] if args.ros else []
-    for out in [p for p in (args.geojson, args.svg, args.compact) if p] + ros:
-        check_writable(out)  # every output before any is written: a failure leaves none of them behind
+    check_outputs(args.geojson, args.svg, args.compact, *ros)
     t0 = time.perf_counter()
     fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
