@@ -418,3 +418,13 @@ def test_export_checks_every_output_before_writing_any(tmp_path, capsys):
                    tmp_path / "a.fbrc", "--ros", tmp_path / "afile"], "afile/m.yaml: cannot write: ", "afile is a file")
     fails(capsys, ["export", m, "--geojson", tmp_path / "a.geojson", "--svg", tmp_path], "cannot write: it is a folder")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "m.json"]
+
+
+def test_tables_csv_checks_every_file_before_writing_any(tmp_path, capsys):
+    # before: vertices_principal.csv was written, then edges_principal.csv failed (a folder of that name)
+    m = tmp_path / "m.json"
+    square_map(m)
+    out = tmp_path / "t"
+    (out / "edges_principal.csv").mkdir(parents=True)
+    fails(capsys, ["tables", m, "--csv", out], "edges_principal.csv: cannot write: it is a folder")
+    assert [p.name for p in out.iterdir()] == ["edges_principal.csv"]
