@@ -122,6 +122,8 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     # before: the grid was written outside --out (../x.pgm), or as ".yaml" and ".yaml.pgm"
     (["grid", "LOG", "--out", "G", "--name", "../x"], "argument --name: name must be a plain file name"),
     (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
+    # before: accepted, and Table 5.3 gave a grid of 0 cells for the map
+    (["memory", "MAP", "--cell", "inf"], "argument --cell: cell size must be a positive finite number, got inf"),
 ])
 def test_bad_options_are_usage_errors(capsys, argv, words):
     with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written
@@ -227,3 +229,215 @@ def test_a_map_beyond_the_largest_coordinates_is_refused_where_it_is_read(tmp_pa
         fails(capsys, ["fuzzify", p, "--out", tmp_path / "m.json", "--tme", "1"],
               "big.geojson: polygon outer ring, vertex 2:", f"coordinate [{size:g}, 0.0] is beyond ±1e+60")
     assert not (tmp_path / "m.json").exists()
+
+
+# ------------------------------------------------------------------------- JSON numbers too large for a float
+
+
+def huge_x(text: str, digits: int) -> str:
+    """``text`` with its first x coordinate written as an integer of ``digits`` digits."""
+    return re.sub(r'("x":\s*\[)[-0-9.eE+]+', lambda m: m.group(1) + "9" * digits, text, count=1)
+
+
+@pytest.mark.filterwarnings("error")  # a NumPy warning on the infinite vertex would be a second line
+@pytest.mark.parametrize("digits", [400, 5000])  # past a float; past Python's int-parsing limit
+def test_integer_too_large_for_a_float_in_a_map_file(tmp_path, capsys, digits):
+    # before: a traceback (OverflowError from NumPy, or ValueError "Exceeds the limit (4300 digits)");
+    # and an infinite vertex (1e400) printed NumPy's RuntimeWarning before the error
+    p = tmp_path / "m.json"
+    square_map(p)
+    p.write_text(huge_x(p.read_text(), digits))
+    fails(capsys, ["memory", p], "m.json: ", "principal, vertex 1: coordinate is not finite")
+    with pytest.raises(MapFileError, match="principal, vertex 1: coordinate is not finite"):
+        read_map(p)
+
+
+def test_integer_too_large_for_a_float_in_geojson_and_a_path(tmp_path, capsys):
+    big = "9" * 400
+    g = tmp_path / "g.geojson"
+    g.write_text('{"type": "Polygon", "coordinates": [[[0, 0], [%s, 0], [4, 4], [0, 4], [0, 0]]]}' % big)
+    fails(capsys, ["fuzzify", g, "--out", tmp_path / "m.json"], "g.geojson: ", "vertex 2: coordinate is not finite")
+    m = tmp_path / "m.json"
+    square_map(m)
+    path = tmp_path / "path.json"
+    path.write_text('{"path": [[1, 1], [%s, 2]]}' % big)
+    fails(capsys, ["view", m, "--html", tmp_path / "v.html", "--path", path], "path.json: path point 2 is not finite")
+
+
+# ------------------------------------------------------------------------- membership functions too wide
+
+
+def test_support_beyond_the_largest_map_is_refused(tmp_path, capsys):
+    # before: fuzzify wrote a map with TME 1e300, and tables, alpha-cut, export and plan crashed on it in GEOS
+    m = tmp_path / "m.json"
+    d = square_map(m)
+    fails(capsys, ["fuzzify", m, "--out", tmp_path / "f.json", "--tme", "1e300"],
+          "membership function 1 (triangular", "support ±1e+300 m reaches beyond ±1e+150 m")
+    assert not (tmp_path / "f.json").exists()
+    d["membership_functions"][0]["tme"] = 1e300
+    m.write_text(json.dumps(d))
+    for command in (["tables", m], ["alpha-cut", m, "--alpha", "0.5"]):
+        fails(capsys, command, "m.json: membership function 1 (triangular", "support ±1e+300 m reaches beyond")
+
+
+# ------------------------------------------------------------------------- a corrupt range or pose far from the rest
+
+
+def room_log(path, corrupt=None) -> None:
+    """Four scans of a 3 m room; ``corrupt(k, ranges, pose)`` may damage scan k (line k + 1)."""
+    lines = []
+    for k in range(4):
+        ranges, pose = [1.5] * 9 + [9.0], [0.1 * k, 0.0, 0.0]
+        if corrupt:
+            corrupt(k, ranges, pose)
+        lines.append(flaser(ranges, tuple(pose), k))
+    path.write_text("".join(lines))
+
+
+def far_range(k, ranges, pose):
+    if k == 2:
+        ranges[3] = 1e5  # a return 100 km away, below the log's largest range (so not "no return")
+    if k == 3:
+        ranges[9] = 1e6
+
+
+def far_pose(k, ranges, pose):
+    if k == 1:
+        pose[0] = 1e5
+
+
+def pose_beyond_any_grid(k, ranges, pose):
+    if k == 1:
+        pose[0] = 1e300
+
+
+@pytest.mark.parametrize("corrupt, words", [
+    # before: NumPy failing to allocate 10 TiB (or an IndexError for 1e300), after reading the whole log
+    (far_range, ["a.log:3: beam 4's return lies 1e+05 m from the median scan position",
+                 "an evidence grid of about 1732059 × 1000184 cells at 0.05 m (limit 40000000"]),
+    (far_pose, ["a.log:2: the scan's position (100000, 0) lies 1e+05 m from the median scan position"]),
+    (pose_beyond_any_grid, ["a.log:2: the scan's position (1e+300, 0) lies 1e+300 m from the median scan position",
+                            "about 2e+301 × 63 cells"]),
+])
+def test_scan_far_from_the_rest_is_named(tmp_path, capsys, corrupt, words):
+    log = tmp_path / "a.log"
+    room_log(log, corrupt)
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt?")
+    assert not (tmp_path / "m.json").exists()
+    if corrupt is far_range:  # evaluate builds its map alike (a far pose stops it earlier, at its grid's size)
+        fails(capsys, ["evaluate", log], *words)
+
+
+def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
+    # before: an IndexError: at 1e300 a float cannot tell one 5 cm cell from the next
+    log = tmp_path / "a.log"
+    room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e300 + k))
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"],
+          "a.log:1: the scan's position (1e+300, 0) lies 1e+300 m from (0, 0): a float places a 0.05 m cell "
+          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt?")
+    room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
+    assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+
+
+# ------------------------------------------------------------------------- absurdly large sizes
+
+
+def test_absurdly_large_cell_or_tolerance_is_not_a_traceback(tmp_path, capsys):
+    # before: OverflowError from a float's ** (the area of a 1e300 m cell; (simplify / 10)²)
+    log, m = tmp_path / "a.log", tmp_path / "m.json"
+    room_log(log)
+    assert cli.main(["build", str(log), "--out", str(m), "--quiet", "--simplify", "1e300"]) == 0
+    square_map(m)
+    assert cli.main(["grid", str(log), "--out", str(tmp_path / "g"), "--resolution", "1e300"]) == 0
+    assert "cells at 1e+300 m" in capsys.readouterr().out
+    assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "1e300"]) == 0
+    out = capsys.readouterr().out
+    assert "cells of 1e+300 m, free area 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
+
+
+# ------------------------------------------------------------------------- scans that bound no free space
+
+
+def test_scans_with_no_free_space_name_the_scans(tmp_path, capsys):
+    # before: "the map has no free space with area", naming neither the log nor the scans
+    one = tmp_path / "one.csv"
+    one.write_text("scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n")
+    fails(capsys, ["build", one, "--out", tmp_path / "m.json", "--quiet"],
+          "the 1 scan one.csv:2 bound no free space with area above 0.05 m²")
+    log = tmp_path / "a.log"
+    room_log(log)
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet", "--max-usable", "1e-9"],
+          "the 4 scans a.log:1 to a.log:4 bound no free space with area above 0.05 m²", "max_usable 1e-09 m")
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_grid_too_large_gives_its_size_in_few_digits(tmp_path, capsys):
+    # before: "a grid of 4000000000000000210019041020817680994817874324432636619663416462047209831955632783...
+    # (300 digits) × ... cells"
+    m = tmp_path / "m.json"
+    square_map(m)
+    err = fails(capsys, ["export", m, "--ros", tmp_path / "r", "--resolution", "1e-300"],
+                "m.yaml: a grid of 4.2e+300 × 4.2e+300 cells at 1e-300 m is too large (limit 40000000 cells)")
+    assert len(err.replace(str(tmp_path), "")) < 160, err
+
+
+# ------------------------------------------------------------------------- CSV files saved with a byte-order mark
+
+
+BOM = "\ufeff"  # what a spreadsheet's "CSV UTF-8" puts before the header
+
+
+def test_csv_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
+    # before: "header lacks column(s) scan" (for a header that has it), "header must be direction,x,y,
+    # got '\ufeffdirection,x,y'", "line 1: not a number pair: '\ufeffx,y'"
+    from fuzzybrep.odometry import read_runs
+    from fuzzybrep.scans.csvscans import read_csv
+    from fuzzybrep.world import Route
+
+    scans = tmp_path / "s.csv"
+    scans.write_text(BOM + "scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n0,0,0,0,0,0.1,1\n", encoding="utf-8")
+    assert len(read_csv(scans)) == 1
+    runs = tmp_path / "runs.csv"
+    runs.write_text(BOM + "direction,x,y\ncw,1,2\nccw,3,4\n", encoding="utf-8")
+    assert len(read_runs(runs)) == 2
+    route = tmp_path / "route.csv"
+    route.write_text(BOM + "x,y\n0,0\n1,0\n", encoding="utf-8")
+    assert Route.from_file(route).waypoints.tolist() == [[0, 0], [1, 0]]
+    pts = tmp_path / "pts.csv"
+    pts.write_text(BOM + "7,8\n", encoding="utf-8")  # no header: the mark must not spoil the first number
+    m = tmp_path / "m.json"
+    square_map(m)
+    assert cli.main(["membership", str(m), "--points", str(pts)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith("7.0,8.0,")
+
+
+def test_evaluate_with_a_grid_too_coarse_for_any_free_cell(tmp_path, capsys):
+    # before: "free_iou": NaN in --json (not JSON), and "IoU ...: nan" in the text
+    log = tmp_path / "a.log"
+    room_log(log)
+    assert cli.main(["evaluate", str(log), "--resolution", "1e300", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))["free_iou"] is None
+    assert cli.main(["evaluate", str(log), "--resolution", "1e300"]) == 0
+    assert "free-space IoU with the 1e+300 grid: undefined (no free space in either at the cell centres)" in \
+        capsys.readouterr().out
+
+
+def test_export_checks_every_output_before_writing_any(tmp_path, capsys):
+    # before: the GeoJSON, SVG and compact map were written, then --ros failed on its folder
+    m = tmp_path / "m.json"
+    square_map(m)
+    (tmp_path / "afile").write_text("x")
+    fails(capsys, ["export", m, "--geojson", tmp_path / "a.geojson", "--svg", tmp_path / "a.svg", "--compact",
+                   tmp_path / "a.fbrc", "--ros", tmp_path / "afile"], "afile/m.yaml: cannot write: ", "afile is a file")
+    fails(capsys, ["export", m, "--geojson", tmp_path / "a.geojson", "--svg", tmp_path], "cannot write: it is a folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "m.json"]
+
+
+def test_tables_csv_checks_every_file_before_writing_any(tmp_path, capsys):
+    # before: vertices_principal.csv was written, then edges_principal.csv failed (a folder of that name)
+    m = tmp_path / "m.json"
+    square_map(m)
+    out = tmp_path / "t"
+    (out / "edges_principal.csv").mkdir(parents=True)
+    fails(capsys, ["tables", m, "--csv", out], "edges_principal.csv: cannot write: it is a folder")
+    assert [p.name for p in out.iterdir()] == ["edges_principal.csv"]

@@ -415,6 +415,16 @@ def test_memory_table_5_3_from_the_thesis_figures():
     assert [round(r.bytes / rows[0].bytes) for r in rows[1:]] == [9, 21, 85]  # "9, 21, and 85 times"
 
 
+@pytest.mark.parametrize("cell", [1e-300, 5e-324, math.inf, 0.0, math.nan])
+def test_memory_with_a_cell_size_that_counts_no_grid(cell):
+    # before: ZeroDivisionError or OverflowError for a tiny cell; a grid of 0 cells for an infinite one
+    with pytest.raises(GeometryError, match=f"occupancy grid of {cell:g} m cells: "):
+        memory_table(77, 77, 1050.0, [cell])
+    with pytest.raises(GeometryError, match=f"occupancy grid of {cell:g} m cells: "):
+        fuzzify(square(), tme=0.1).memory([cell])
+
+
+
 def test_memory_of_a_map():
     fz = fuzzify(square(10, [[(2, 2), (2, 3), (3, 3), (3, 2)]]), tme=0.2)
     rows = fz.memory([1.0])
@@ -456,3 +466,18 @@ def test_loading_a_crisp_map_needs_a_tme(tmp_path):
 def test_table_from_mapping():
     fz = fuzzify(square(), MembershipTable({1: Triangular(0.1)}))
     assert fz.table.indices == [1]
+
+
+def test_bad_arguments_raise_the_packages_errors():
+    # before: bare ValueErrors (while offset_vertices already raised MembershipFunctionError for α)
+    fz = fuzzify(square(), tme=0.1)
+    for bad in (math.nan, 2.0, "x", None):
+        with pytest.raises(MembershipFunctionError, match="α must"):
+            fz.alpha_cut(bad)
+    with pytest.raises(MembershipFunctionError, match=r"α must lie in \[0, 1\], got nan"):
+        fz.approximation_error([math.nan])
+    with pytest.raises(GeometryError, match="point 2 is not finite"):
+        fz.membership([[1.0, 1.0], [math.nan, 1.0]])
+    with pytest.raises(GeometryError, match=r"points must be an \(m, 2\) array, got shape \(2,\)"):
+        fz.membership([1.0, 1.0])
+    assert fz.membership([]).shape == (0,)  # no points: no grades (before: "got shape (0,)")

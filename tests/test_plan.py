@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 import shapely
 import shapely.affinity
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from fuzzybrep.brep import BRepMap
+from fuzzybrep.brep import BRepMap, Region, Ring
 from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
 from fuzzybrep import plan as plan_module
@@ -631,6 +631,7 @@ def test_cli_text_path_read_back_stays_in_the_safe_region_far_from_the_origin(tm
 
 
 @given(st.floats(min_value=-1e300, max_value=1e300), st.floats(min_value=1e-300, max_value=1e300))
+@example(v=7.0000355399440856e+16, step=10.0)  # 16 digits, but the float read back is 8 away (floats are 16 apart there)
 @settings(max_examples=300, deadline=None)
 def test_cli_coordinates_are_printed_within_half_a_step(v, step):
     # (not near the largest float: rounded up, 1.79769313485e308 reads back as inf; paths lie
@@ -786,3 +787,16 @@ def test_real_map_plan_command(real, capsys):
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert shapely.covers(shapely.buffer(pl.safe, TOL), shapely.LineString(out["path"]))
+
+
+def test_bad_planner_arguments_raise_plan_errors():
+    # before: bare ValueErrors from the planner's checks of a radius or a point
+    fz = fuzzify(BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)])),)), tme=0.1)
+    for radius in (-1.0, math.nan, "x"):
+        with pytest.raises(PlanError, match="radius must be"):
+            planner(fz, 0.0, radius)
+    pl = planner(fz, 0.0, 0.1)
+    with pytest.raises(PlanError, match=r"goal must be a point \(x, y\) of two finite numbers, got \[nan, 1.0\]"):
+        pl.plan((1, 1), [math.nan, 1.0])
+    with pytest.raises(PlanError, match=r"start must be a point \(x, y\)"):
+        pl.plan("here", (2, 2))

@@ -72,6 +72,9 @@ def test_carmen_explicit_max_range(tmp_path):
         ("FLASER x 1.0\n", "n", ScanFormatError, "not an integer"),
         ("FLASER 2 1.0 2.0 1 2 nan 1 2 3 4 h 4\n", "theta", ScanValueError, "not finite"),
         ("FLASER 2 1.0 2.0 1 2 3 1 2 3 oops h 4\n", "timestamp", ScanFormatError, "not a number"),
+        # cut after the host: before, "beam count 2 does not match the line's 12 fields", blaming the count
+        ("FLASER 2 1.0 2.0 1 2 3 1 2 3 4 host\n", None, ScanFormatError,
+         "truncated: 12 fields, ending at the host 'host'; a FLASER line with 2 beams has 13, the logger timestamp last"),
     ],
 )
 def test_carmen_bad_lines_name_file_line_and_field(tmp_path, line, field, cls, words):
@@ -256,3 +259,20 @@ def test_real_logs_read_with_their_sentinels():
         # the sentinel marks the no-return beams, which are a small minority
         returns = sum(int(s.returns.sum()) for s in scans)
         assert 0.9 * n * beams < returns < n * beams
+
+
+@pytest.mark.parametrize("kw, words", [
+    # before: all accepted; a NaN bearing passed "bearings must increase strictly" (NaN compares false),
+    # a NaN max_range made every beam "no return", and a scan with no beams failed deep in build_map
+    # with NumPy's "zero-size array to reduction operation minimum"
+    (dict(bearings=[0.0, float("nan"), 0.2]), "s.log:3: beam 1 has bearing nan (not finite)"),
+    (dict(timestamp=float("nan")), "s.log:3: timestamp nan is not finite"),
+    (dict(max_range=float("nan")), "s.log:3: max_range nan must be positive (inf: every range is a return)"),
+    (dict(max_range=-1.0), "s.log:3: max_range -1.0 must be positive"),
+    (dict(ranges=[], bearings=[]), "s.log:3: a scan needs at least one beam"),
+])
+def test_scan_refuses_impossible_values(kw, words):
+    args = dict(ranges=[1.0, 2.0, 3.0], bearings=[0.0, 0.1, 0.2], pose=[0.0, 0.0, 0.0], source="s.log:3") | kw
+    with pytest.raises(ScanValueError) as e:
+        Scan(**args)
+    assert str(e.value) == words or str(e.value).startswith(words), str(e.value)

@@ -206,3 +206,11 @@ def test_absolute_image_path_and_writer_checks(tmp_path):
     with pytest.raises(MapFileError, match="uint8"):
         write_ros_map(tmp_path / "w.yaml", img.astype(float), 0.05, (0.0, 0.0))
     assert not (tmp_path / "w.yaml").exists() and not (tmp_path / "w.pgm").exists()
+
+
+def test_a_map_whose_yaml_cannot_be_written_leaves_no_pgm(tmp_path):
+    # before: NAME.pgm was written, then NAME.yaml failed (a folder of that name): half a map
+    (tmp_path / "m.yaml").mkdir()
+    with pytest.raises(MapFileError, match="m.yaml: cannot write: it is a folder"):
+        write_ros_map(tmp_path / "m.yaml", np.zeros((2, 3), np.uint8), 0.05, (0.0, 0.0, 0.0))
+    assert [p.name for p in tmp_path.iterdir()] == ["m.yaml"]

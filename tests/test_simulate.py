@@ -383,3 +383,38 @@ def test_simulate_command_needs_a_route_for_a_custom_world(tmp_path, monkeypatch
     assert "16.0 m, 5 stops" in capsys.readouterr().out
     assert cli.main(["simulate", "--glass-pass", "0.8", "--glass-reflect", "0.5"]) == 2
     assert "bad robot or laser option" in capsys.readouterr().err
+
+
+def test_stop_spacing_longer_than_a_closed_route_still_stops_at_the_start(capsys):
+    # before: no stop at all (the start was dropped as "near the end"), then an IndexError in simulate_run
+    route = builtin_route(1000.0)
+    assert route.closed and route.stop_distances().tolist() == [0.0]
+    assert cli.main(["simulate", "--spacing", "1000", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scans"] == 2  # one stop: its two 180° scans
+
+
+def test_stop_spacing_too_fine_for_memory_is_refused(capsys):
+    # before: NumPy failing to allocate a terabyte for 1.4e11 stops
+    with pytest.raises(WorldError, match=r"stop spacing 1e-09 m gives 1\.36e\+11 stops along the route's 136 m "
+                                         r"\(at most 100000\)"):
+        builtin_route(1e-9)
+    assert cli.main(["simulate", "--spacing", "1e-9"]) == 2
+    assert "simulate: error: stop spacing 1e-09 m gives" in capsys.readouterr().err
+
+
+def test_route_outside_the_world_names_the_route_file(tmp_path, capsys):
+    # before: "route waypoint 1 [0.0, 0.0] is not in the free space", naming no file
+    route = tmp_path / "r.csv"
+    route.write_text("x,y\n0,0\n100,100\n")
+    for command in (["simulate", "--route", route], ["demo", "--out", tmp_path / "d", "--route", route]):
+        assert cli.main([str(a) for a in command]) == 2
+        err = capsys.readouterr().err
+        assert f"error: {route}: route waypoint 1 [0.0, 0.0] is not in the free space (world: built-in floor)" in err, err
+
+
+def test_simulate_checks_every_output_before_writing_any(tmp_path, capsys):
+    # before: the scans were written, then --world-out failed on a folder
+    assert cli.main(["simulate", "--out", str(tmp_path / "s.npz"), "--umbmark-out", str(tmp_path / "u.csv"),
+                     "--world-out", str(tmp_path)]) == 2
+    assert f"{tmp_path}: cannot write: it is a folder" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -318,7 +318,8 @@ def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplif
     g = _drop_small(polygonal(geom), min_piece_area, min_hole_area)
     if simplify > 0 and not g.is_empty:
         g = polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
-        g = _drop_small(g, min_piece_area, max(min_hole_area, (simplify / 10) ** 2))
+        # (s/10)², written s/10 * s/10: a float's ** raises OverflowError (--simplify 1e300) where * gives inf
+        g = _drop_small(g, min_piece_area, max(min_hole_area, simplify / 10 * (simplify / 10)))
     return g
 
 

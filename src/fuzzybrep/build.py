@@ -21,9 +21,11 @@ import shapely
 
 from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
+from .errors import GeometryError, ScanValueError
 from .evidence import EvidenceConfig, Rays
 from .membership import DEFAULT_TME_M
 from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
+from .rosmap import cell_count_text
 from .scans.filters import BeamConfig, classify_all
 from .scans.scan import Scan
 
@@ -87,6 +89,8 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         beams = classify_all(scans, config.beams, config.polygon)
     with timer("evidence"):
         rays = rays_of(scans, beams)
+        if config.use_evidence:
+            check_extent(scans, rays, config.evidence.cell, config.unit)
         ev = evidence.gather(rays, config.evidence) if config.use_evidence else None
         free = evidence.clip(rays, ev, config.evidence) if ev is not None else rays.length
         free, status, clipped = _split_free(scans, beams, free)
@@ -104,6 +108,10 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
         geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
+        if geom.is_empty:
+            raise GeometryError(f"{_named(scans)} bound no free space with area above {config.min_piece_area:g} "
+                                f"{config.unit}² (too few beams with a return, or max_usable "
+                                f"{config.beams.max_usable:g} {config.unit} too short)")
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):
         crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp
@@ -120,6 +128,45 @@ def rays_of(scans: Sequence[Scan], beams) -> Rays:
     r = np.concatenate([s.ranges for s in scans])
     hit = np.concatenate([s.returns for s in scans])
     return Rays(ox, oy, np.cos(ang), np.sin(ang), length, t, hit, r)
+
+
+def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m") -> None:
+    """ScanValueError naming the scan (and the beam) that lies farthest out when the evidence grid
+    over ``rays`` would hold more than evidence.MAX_CELLS cells (farthest from the median scan
+    position), or reach beyond evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a
+    corrupt range or pose otherwise ended in NumPy failing to allocate terabytes, or an IndexError."""
+    origin, nx, ny = evidence.grid_frame(rays, cell)
+    reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
+    if nx * ny > evidence.MAX_CELLS:
+        centre, where = np.median([s.pose[:2] for s in scans], axis=0), "the median scan position"
+        why = f"an evidence grid of about {cell_count_text(nx)} × {cell_count_text(ny)} cells at {cell:g} {unit} " \
+              f"(limit {evidence.MAX_CELLS}) would hold it"
+    elif reach > evidence.MAX_CELLS_FROM_ZERO * cell:
+        centre, where = np.zeros(2), "(0, 0)"
+        why = f"a float places a {cell:g} {unit} cell of the evidence grid only within " \
+              f"±{evidence.MAX_CELLS_FROM_ZERO * cell:.3g} {unit} of (0, 0)"
+    else:
+        return
+    hits = np.flatnonzero(rays.hit)
+    d_pose = np.hypot(rays.ox - centre[0], rays.oy - centre[1])
+    d_hit = np.full(len(d_pose), -np.inf)
+    d_hit[hits] = np.hypot(rays.hx - centre[0], rays.hy - centre[1])
+    ray = int(np.argmax(np.maximum(d_hit, d_pose)))
+    ends = np.cumsum([len(s.ranges) for s in scans])
+    k = int(np.searchsorted(ends, ray, side="right"))
+    s = scans[k]
+    if d_pose[ray] >= d_hit[ray] / 2:  # the scan itself lies far out, not just what one beam saw
+        what, d = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})", d_pose[ray]
+    else:
+        what, d = f"beam {ray - (int(ends[k - 1]) if k else 0) + 1}'s return", d_hit[ray]
+    raise ScanValueError(s.source or f"scan {k}", None,
+                         f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+
+
+def _named(scans: Sequence[Scan]) -> str:
+    """The scans for a message, by where they came from ("file:line"): which log a failure is about."""
+    a, b = scans[0].source or "scan 1", scans[-1].source or f"scan {len(scans)}"
+    return f"the 1 scan {a}" if len(scans) == 1 else f"the {len(scans)} scans {a} to {b}"
 
 
 def _split_free(scans, beams, free: np.ndarray):

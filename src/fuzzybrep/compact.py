@@ -31,7 +31,7 @@ import numpy as np
 
 from .brep import BRepMap, Region, Ring, frontier_fm
 from .errors import MapFileError
-from .mapfile import check_map, write_atomic
+from .mapfile import check_map, loads_json, write_atomic
 
 MAGIC = b"FBRC"
 VERSION = 1
@@ -170,7 +170,7 @@ def decode(data: bytes) -> tuple[BRepMap, list[dict]]:
     mfs = []
     for k in range(int(n_mf)):
         (n,) = f.counts(1, f"membership function {k + 1}")
-        mf = json.loads(f.bytes(int(n), f"membership function {k + 1}"))
+        mf = loads_json(f.bytes(int(n), f"membership function {k + 1}"))
         if not isinstance(mf, dict):
             raise ValueError(f"membership function {k + 1} is not a JSON object")
         mfs.append(mf)

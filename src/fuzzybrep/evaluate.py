@@ -20,6 +20,7 @@ have avoided.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -228,7 +229,10 @@ class Evaluation:
     seconds: float
 
     def as_dict(self) -> dict:
-        d = {k: v for k, v in self.__dict__.items() if not isinstance(v, EndpointScore)}
+        """The JSON form. An undefined IoU (NaN: no free space in either at the cell centres) is
+        None, JSON's null: json.dumps would write NaN, which is not JSON."""
+        d = {k: None if isinstance(v, float) and math.isnan(v) else v
+             for k, v in self.__dict__.items() if not isinstance(v, EndpointScore)}
         d["exact"], d["sweep"] = self.exact.as_dict(), self.sweep.as_dict()
         return d
 

@@ -174,16 +174,31 @@ def _parallel(fn, jobs):
         return list(ex.map(fn, jobs))
 
 
+#: the evidence grid holds at most this many cells: gathering takes about 100 bytes a cell (4 GB
+#: here), and the real logs need 0.3-1.3 million
+MAX_CELLS = 40_000_000
+#: coordinates at most this many cells from (0, 0): a float holds 1 part in 2**52, so beyond it
+#: resolves a coordinate to worse than 1/64 of a cell (at 1e15 m no free space was left; at 1e300
+#: samples fell outside the grid, an IndexError); 3.5e12 m for 5 cm cells
+MAX_CELLS_FROM_ZERO = 2.0**46
+
+
+def grid_frame(rays: Rays, cell: float) -> tuple[np.ndarray, float, float]:
+    """(origin, nx, ny) of the grid that holds every hit, ray origin and ray end, with a margin.
+    nx and ny are floats, so that a grid too large to hold can be measured."""
+    xs = np.concatenate((rays.hx, rays.ox, rays.ox + rays.length * rays.cos))
+    ys = np.concatenate((rays.hy, rays.oy, rays.oy + rays.length * rays.sin))
+    origin = np.array([xs.min() - 2 * cell, ys.min() - 2 * cell])
+    return origin, np.floor((xs.max() - origin[0]) / cell) + 3, np.floor((ys.max() - origin[1]) / cell) + 3
+
+
 def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
-    """Hits and the time-aware occupied state of every cell (steps 1-3 above)."""
+    """Hits and the time-aware occupied state of every cell (steps 1-3 above). A grid over more
+    than MAX_CELLS, or reaching beyond MAX_CELLS_FROM_ZERO, is the caller's to refuse first
+    (``build.check_extent``, which names the scan)."""
     hx, hy = rays.hx, rays.hy
-    ends_x = rays.ox + rays.length * rays.cos
-    ends_y = rays.oy + rays.length * rays.sin
-    xs = np.concatenate((hx, rays.ox, ends_x))
-    ys = np.concatenate((hy, rays.oy, ends_y))
-    origin = np.array([xs.min() - 2 * cfg.cell, ys.min() - 2 * cfg.cell])
-    nx = int((xs.max() - origin[0]) / cfg.cell) + 3
-    ny = int((ys.max() - origin[1]) / cfg.cell) + 3
+    origin, nx, ny = grid_frame(rays, cfg.cell)
+    nx, ny = int(nx), int(ny)
     ev = Evidence(origin, cfg.cell, (ny, nx), np.zeros(0, np.int32), np.zeros(0, bool))
 
     hc = ev.cell_index(hx, hy)

@@ -33,7 +33,7 @@ from scipy import ndimage
 from .brep import FRONTIER, BRepMap
 from .geojson import alpha_cut_collection
 from .mapfile import write_atomic
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, write_ros_map
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area, write_ros_map
 
 #: default levels of ``fuzzybrep export --geojson`` and ``--svg``
 DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -122,7 +122,7 @@ class MembershipRaster:
         return self.image.shape  # type: ignore[return-value]
 
     def free_area(self) -> float:
-        return float(self.free.sum()) * self.resolution ** 2
+        return cells_area(int(self.free.sum()), self.resolution)
 
 
 def grey_levels(mu: np.ndarray, free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
@@ -194,7 +194,7 @@ def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") ->
     w = math.ceil((x1 + pad - ox) / resolution)
     h = math.ceil((y1 + pad - oy) / resolution)
     if w * h > MAX_CELLS:
-        raise ValueError(f"a grid of {w} × {h} cells at {resolution:g} {crisp.unit} is too large "
+        raise ValueError(f"a grid of {cell_count_text(w)} × {cell_count_text(h)} cells at {resolution:g} {crisp.unit} is too large "
                          f"(limit {MAX_CELLS} cells): give a coarser resolution")
     cx = ox + (np.arange(w) + 0.5) * resolution
     cy = oy + (np.arange(h) + 0.5) * resolution

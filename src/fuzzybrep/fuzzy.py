@@ -41,6 +41,11 @@ METHODS = ("sweep", "exact")
 _SMALL_RING = 64
 #: arcs of the exact α-cuts: segments per quarter circle (GEOS buffer's quad_segs)
 EXACT_QUAD_SEGS = 32
+#: membership functions with a support wider than ± this are refused (by ``fuzzify``): their
+#: support polygons and α-cuts square distances, which passes the largest float from about
+#: 1.3e154 on (a TME of 1e154 ended in OverflowError, 1e160 in GEOS exceptions); up to 1e150 the
+#: tables, α-cuts and plans still work
+WIDEST_SUPPORT = 1e150
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
@@ -534,12 +539,12 @@ class FuzzyBRepMap:
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         p = np.asarray(points, dtype=np.float64)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"points must be an (m, 2) array, got shape {p.shape}")
-        if len(p) == 0:
+        if p.size == 0:  # no points ([] as well as an empty (0, 2) array): no grades
             return np.zeros(0)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise GeometryError(f"points must be an (m, 2) array, got shape {p.shape}")
         if not np.isfinite(p).all():
-            raise ValueError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
+            raise GeometryError(f"point {int(np.argmax(~np.isfinite(p).all(axis=1))) + 1} is not finite")
         if self._rounding * 1e12 > LARGEST:  # the map's size (an O(1) check: it is cached)
             raise GeometryError(f"the map is {self._rounding * 1e12:.3g} {self.unit} across: μ is computed "
                                 f"for maps up to {LARGEST:g} {self.unit} across, beyond which its arithmetic overflows")
@@ -726,7 +731,7 @@ class FuzzyBRepMap:
                                  compact_bytes(self)))
         x0, y0, x1, y1 = self.crisp_geometry.bounds
         for c in cells:
-            nc = math.ceil((x1 - x0) / c - 1e-9) * math.ceil((y1 - y0) / c - 1e-9)
+            nc = _cell_count(x1 - x0, c, self.unit) * _cell_count(y1 - y0, c, self.unit)
             rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {self.unit} over the bounding box "
                                   f"({x1 - x0:.4g}×{y1 - y0:.4g} {self.unit})", nc, 4 * nc))
         return rows
@@ -758,7 +763,7 @@ class FuzzyBRepMap:
         try:
             # read_map validated the rings: checking them again would double the cost of a load
             return fuzzify(m.crisp, table, tme=tme if table is None else None, validate=False)
-        except GeometryError as e:  # an FM index with no function in the file's table
+        except (GeometryError, MembershipFunctionError) as e:  # an FM index with no function, a support too wide
             raise MapFileError(path, str(e)) from None
 
     @classmethod
@@ -779,9 +784,9 @@ def _check_alpha(alpha) -> float:
     try:
         a = float(alpha)
     except (TypeError, ValueError):
-        raise ValueError(f"α must be a number in [0, 1], got {alpha!r}") from None
-    if not 0.0 <= a <= 1.0:
-        raise ValueError(f"α must lie in [0, 1], got {alpha!r}")
+        raise MembershipFunctionError(f"α must be a number in [0, 1], got {alpha!r}") from None
+    if not 0.0 <= a <= 1.0:  # a membership grade, as membership._alpha says for offset_vertices
+        raise MembershipFunctionError(f"α must lie in [0, 1], got {alpha!r}")
     return a
 
 
@@ -828,6 +833,7 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
         k = max(table.indices) + 1
         table = MembershipTable({**dict(table), k: frontier_mf})
         crisp = crisp.with_rings([Ring(r.vertices, r.kinds, frontier_fm(r.kinds, r.fm, k)) for r in crisp.rings])
+    _check_reach(table, crisp.unit)
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)
@@ -855,6 +861,17 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
     return FuzzyBRepMap(crisp, table, tuple(lines))
 
 
+def _check_reach(table: MembershipTable, unit: str) -> None:
+    """MembershipFunctionError if a function's support reaches beyond ±WIDEST_SUPPORT (a TME of
+    1e300 was fuzzified and written, and every command reading the map then crashed)."""
+    for k, f in table:
+        reach = max(f.support_in, f.support_out)
+        if reach > WIDEST_SUPPORT:
+            raise MembershipFunctionError(f"membership function {k} ({f.formula()}): its support ±{reach:g} {unit} "
+                                          f"reaches beyond ±{WIDEST_SUPPORT:g} {unit}, farther than fuzzybrep's "
+                                          f"arithmetic holds")
+
+
 def validate_map(crisp: BRepMap) -> None:
     """Raise GeometryError naming ring and vertex if a ring is degenerate or a region invalid.
 
@@ -874,11 +891,14 @@ def validate_map(crisp: BRepMap) -> None:
         nxt[start + sizes - 1] = start
         finite = np.isfinite(V).all(axis=1)
         dup = np.all(V == V[nxt], axis=1)
-        x, y = V[:, 0], V[:, 1]
-        area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+        # a ring with a non-finite vertex is suspect already: 0 in its place keeps NumPy from
+        # warning (a second line before the error), and an area that overflows is not 0
+        Vf = np.where(finite[:, None], V, 0.0)
+        x, y = Vf[:, 0], Vf[:, 1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
         closed = np.concatenate([np.append(np.arange(a, a + n), a) for a, n in zip(start, sizes)])
-        simple = shapely.is_simple(shapely.linearrings(np.where(finite[:, None], V, 0.0)[closed],
-                                                       indices=ring_of[closed]))
+        simple = shapely.is_simple(shapely.linearrings(Vf[closed], indices=ring_of[closed]))
         suspect = (np.bincount(ring_of, weights=~finite | dup, minlength=len(rings)) > 0) | (area == 0) | ~simple
     for k in np.flatnonzero(suspect):  # the detailed message comes from validate_ring
         validate_ring(rings[k].vertices, names[k])
@@ -929,12 +949,25 @@ def memory_table(n_vertices: int, n_edges: int, area: float, cells=(0.3, 0.2, 0.
     numbers = THESIS_NUMBERS_PER_VERTEX * n_vertices + THESIS_NUMBERS_PER_EDGE * n_edges
     rows = [MemoryRow("fuzzy B-rep, thesis accounting (10 per vertex + 6 per edge)", numbers, BYTES_PER_NUMBER * numbers)]
     for c in cells:
-        if not c > 0:
-            raise ValueError(f"cell size must be positive, got {c!r}")
-        nc = math.ceil(area / (c * c) - 1e-9)
+        nc = _cell_count(area, c, unit, dims=2)
         rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {unit} over the map's area ({area:.6g} {unit}²)", nc,
                               BYTES_PER_NUMBER * nc))
     return rows
+
+
+def _cell_count(size: float, c: float, unit: str, dims: int = 1) -> int:
+    """⌈size / c^dims⌉: the cells of ``c``-sized cells along a side (dims 1) or over an area (2);
+    GeometryError for a cell size with no such grid: not positive or infinite (0 cells), or so
+    small that the count is no finite float (before: ZeroDivisionError, or OverflowError from ceil)."""
+    if not 0 < c < math.inf:
+        raise GeometryError(f"occupancy grid of {c:g} {unit} cells: the cell size must be a positive finite number")
+    n = size
+    for _ in range(dims):  # divided once per side: c * c underflows to 0 below 1e-162
+        n /= c
+    if not math.isfinite(n):
+        raise GeometryError(f"occupancy grid of {c:g} {unit} cells: too many cells to count (more than "
+                            f"a float holds); the cell size is too small")
+    return math.ceil(n - 1e-9)
 
 
 def compact_bytes(fuzzy: FuzzyBRepMap) -> int:

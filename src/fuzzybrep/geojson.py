@@ -20,6 +20,7 @@ import shapely
 
 from .brep import BRepMap, locate_vertex, validate_ring
 from .errors import GeometryError, MapFileError
+from .mapfile import loads_json
 from .scans.read import is_float
 
 def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
@@ -31,7 +32,7 @@ def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
     try:
-        obj = json.loads(raw)
+        obj = loads_json(raw)
     except json.JSONDecodeError as e:
         raise MapFileError(path, f"not valid JSON ({e})") from None
     try:
@@ -145,7 +146,7 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
     least one point."""
     path = Path(path)
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
+        with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
             rows = list(csv.reader(fh))
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None

@@ -32,7 +32,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area
 from .scans.scan import Scan
 
 
@@ -127,7 +127,7 @@ class OccupancyGrid:
 
     def free_area(self) -> float:
         """Area of the free cells (map unit²)."""
-        return float(np.count_nonzero(self.free())) * self.resolution**2
+        return cells_area(int(np.count_nonzero(self.free())), self.resolution)
 
     # ------------------------------------------------------------------ queries at world points
     def cell_index(self, x, y) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -219,7 +219,7 @@ def occupancy_grid(
     i0, j0, nx, ny = lattice(min(b.ox.min(), ex.min()), min(b.oy.min(), ey.min()),
                              max(b.ox.max(), ex.max()), max(b.oy.max(), ey.max()), resolution)
     if nx * ny > MAX_CELLS:
-        raise ValueError(f"a grid of {nx:.0f} × {ny:.0f} cells at resolution {resolution:g} is too large "
+        raise ValueError(f"a grid of {cell_count_text(nx)} × {cell_count_text(ny)} cells at resolution {resolution:g} is too large "
                          f"(limit {MAX_CELLS} cells): give a coarser resolution")
     nx, ny = int(nx), int(ny)
     ou, ov = b.ox / resolution - i0, b.oy / resolution - j0

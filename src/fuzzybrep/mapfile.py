@@ -191,6 +191,14 @@ def check_writable(path: str | os.PathLike) -> None:
         raise MapFileError(path, f"cannot write: folder {folder} is not writable")
 
 
+def check_outputs(*paths: str | os.PathLike | None) -> None:
+    """``check_writable`` for every output a command was given (None: not asked for), before it
+    writes any: a command whose last output cannot be written must not leave the first ones."""
+    for p in paths:
+        if p is not None:
+            check_writable(p)
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     """Write bytes so that the file is either the old one or the complete new one, never half."""
     path = Path(path)
@@ -213,6 +221,21 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     return len(data)
 
 
+def _json_integer(text: str) -> int | float:
+    """A JSON integer, or ±inf when it is too large for a float, as a JSON real that large
+    (1e400) already reads: every reader then refuses it as not finite, naming the place. Kept as
+    an int, it failed deep inside a reader (OverflowError on the way to a float, or Python's
+    ValueError for an integer of more than 4300 digits)."""
+    if len(text.lstrip("-")) <= 308:  # the largest float has 309 digits: a shorter integer fits
+        return int(text)
+    return float(text)  # float() parses any length: inf beyond the largest float
+
+
+def loads_json(raw: str | bytes):
+    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf."""
+    return json.loads(raw, parse_int=_json_integer)
+
+
 def read_map(path: str | os.PathLike) -> MapFile:
     path = Path(path)
     try:
@@ -220,7 +243,7 @@ def read_map(path: str | os.PathLike) -> MapFile:
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
     try:
-        d = json.loads(raw)
+        d = loads_json(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"not valid JSON ({e})") from None
     return from_json(d, path)

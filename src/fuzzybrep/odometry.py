@@ -169,7 +169,7 @@ def read_runs(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     skipped. Raises UMBmarkError naming the file, line and field of the first problem.
     """
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        with open(path, newline="", encoding="utf-8-sig") as f:  # -sig: a spreadsheet's byte-order mark
             lines = f.read().splitlines()
     except (OSError, UnicodeDecodeError) as e:
         raise UMBmarkError(f"cannot read: {getattr(e, 'strerror', None) or e}", path) from None

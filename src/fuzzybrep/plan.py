@@ -145,9 +145,9 @@ def _check_radius(radius) -> float:
     try:
         r = float(radius)
     except (TypeError, ValueError):
-        raise ValueError(f"radius must be a number ≥ 0, got {radius!r}") from None
+        raise PlanError(f"radius must be a number ≥ 0, got {radius!r}") from None
     if not (math.isfinite(r) and r >= 0):
-        raise ValueError(f"radius must be a finite number ≥ 0, got {radius!r}")
+        raise PlanError(f"radius must be a finite number ≥ 0, got {radius!r}")
     return r
 
 
@@ -629,9 +629,9 @@ def _point(point, which: str) -> np.ndarray:
     try:
         p = np.asarray(point, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise ValueError(f"{which} must be a point (x, y), got {point!r}") from None
+        raise PlanError(f"{which} must be a point (x, y), got {point!r}") from None
     if p.shape != (2,) or not np.isfinite(p).all():
-        raise ValueError(f"{which} must be a point (x, y) of two finite numbers, got {point!r}")
+        raise PlanError(f"{which} must be a point (x, y) of two finite numbers, got {point!r}")
     return p
 
 

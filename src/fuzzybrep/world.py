@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 
 from .errors import WorldError
-from .mapfile import write_atomic
+from .mapfile import loads_json, write_atomic
 
 #: glass lines may lie this far (m) off the free-space boundary; wall pieces shorter than twice
 #: this (the slivers a glass line's end cuts off the neighbouring wall) are dropped
@@ -197,7 +197,7 @@ def _feature(geom, props: dict) -> dict:
 def _read_geojson(path: str | os.PathLike) -> tuple[list[tuple[int, dict]], float]:
     """Features as (1-based index, {"geometry": shapely, "properties": dict}) and the unit scale."""
     try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        doc = loads_json(Path(path).read_text(encoding="utf-8"))
     except OSError as e:
         raise WorldError(f"cannot read: {e.strerror or e}", path) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
@@ -286,6 +286,11 @@ def builtin_floor() -> World:
 # ----------------------------------------------------------------------------------- route
 
 
+#: stops a route may have: each is two scans cast and held in memory (136 000 ran for minutes,
+#: 1.4e11 asked NumPy for a terabyte; the built-in route has 27)
+MAX_STOPS = 100_000
+
+
 @dataclass(frozen=True, eq=False)
 class Route:
     """Waypoints (n, 2) in metres, driven in order, and a stop every ``spacing`` metres.
@@ -313,6 +318,10 @@ class Route:
             raise WorldError(f"route waypoint {int(np.argmax(same)) + 2} repeats the one before")
         if not (math.isfinite(self.spacing) and self.spacing > 0):
             raise WorldError(f"stop spacing must be positive, got {self.spacing!r}")
+        length = float(np.hypot(*np.diff(w, axis=0).T).sum())
+        if length / self.spacing > MAX_STOPS:
+            raise WorldError(f"stop spacing {self.spacing:g} m gives {length / self.spacing:.3g} stops along the "
+                             f"route's {length:.3g} m (at most {MAX_STOPS}): give a wider spacing")
         w.setflags(write=False)
         object.__setattr__(self, "waypoints", w)
 
@@ -338,8 +347,8 @@ class Route:
     def stop_distances(self) -> np.ndarray:
         """Distance along the route of every stop."""
         s = np.arange(0.0, self.length + 1e-9, self.spacing)
-        if self.closed:
-            s = s[s < self.length - self.spacing / 2]
+        if self.closed:  # the first stop stays, even with a spacing longer than the route
+            s = s[(s == 0) | (s < self.length - self.spacing / 2)]
         return s
 
     def poses_at(self, s: np.ndarray) -> np.ndarray:
@@ -375,7 +384,7 @@ class Route:
             except (WorldError, TypeError, ValueError) as e:
                 raise WorldError(getattr(e, "reason", str(e)), path, k) from None
         try:
-            text = path.read_text(encoding="utf-8")
+            text = path.read_text(encoding="utf-8-sig")  # -sig: a spreadsheet's byte-order mark
         except (OSError, UnicodeDecodeError) as e:
             raise WorldError(f"cannot read: {getattr(e, 'strerror', None) or e}", path) from None
         pts = []

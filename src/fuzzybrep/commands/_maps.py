@@ -10,7 +10,7 @@ from ..brep import BRepMap, Ring
 from ..errors import MapFileError, MembershipFunctionError
 from ..fuzzy import FuzzyBRepMap, fuzzify
 from ..geojson import read_geojson
-from ..mapfile import FORMAT, MapFile, from_json, read_map
+from ..mapfile import FORMAT, MapFile, from_json, loads_json, read_map
 from ..membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
@@ -77,7 +77,7 @@ def read_crisp(path: str | Path, unit: str) -> BRepMap:
     path = Path(path)
     if path.suffix.lower() == ".json":
         try:
-            obj = json.loads(path.read_text(encoding="utf-8"))
+            obj = loads_json(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import WorldError
-from ..world import Route, World, builtin_floor, builtin_route
+from ..world import Route, World, builtin_floor, builtin_route, check_route
 
 
 def add_world_arguments(p: argparse.ArgumentParser, title: str) -> None:
@@ -40,4 +40,9 @@ def world_and_route(args: argparse.Namespace) -> tuple[World, Route, str]:
                              e.feature) from None
     else:
         route = builtin_route(5.0 if args.spacing is None else args.spacing)
+    try:
+        check_route(world, route)  # here, where the files are known: the error names them
+    except WorldError as e:
+        world_name = args.world or "built-in floor"
+        raise WorldError(f"{e.reason} (world: {world_name})", args.route or args.world, e.feature) from None
     return world, route, str(args.world) if args.world else "built-in"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log
@@ -52,7 +53,8 @@ def run(args) -> int:
           f"within TME: no map of the kept scans could know them")
     print(f"  {pct(e.violations_came_and_went)} of all endpoints are violations that came and went: beams of kept "
           f"scans passed more than TME beyond them both before and after (people, doors)")
-    print(f"  free-space IoU with the {e.resolution:g} grid: {e.free_iou:.3f}")
+    iou = "undefined (no free space in either at the cell centres)" if math.isnan(e.free_iou) else f"{e.free_iou:.3f}"
+    print(f"  free-space IoU with the {e.resolution:g} grid: {iou}")
     print(f"  bytes: fuzzy map {e.map_bytes_compact} compact ({e.map_bytes_thesis} as Table 5.3 counts) vs grid "
           f"{e.grid_bytes} ({e.grid_bytes / e.map_bytes_compact:.1f}x the compact map)")
     return 0

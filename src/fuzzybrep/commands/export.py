@@ -48,12 +48,15 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import MapFileError
     from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
                           write_geojson, write_ros)
-    from ..mapfile import write_atomic
+    from ..mapfile import check_outputs, write_atomic
     from ..svg import svg_document
 
     if not (args.geojson or args.ros or args.svg or args.compact):
         print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
         return 2
+    name = args.name or Path(args.map).stem
+    ros = [Path(args.ros) / f"{name}.{ext}" for ext in ("yaml", "pgm")] if args.ros else []
+    check_outputs(args.geojson, args.svg, args.compact, *ros)
     t0 = time.perf_counter()
     fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
@@ -73,7 +76,6 @@ def run(args: argparse.Namespace) -> int:
         n = write_compact(args.compact, fuzzy.crisp, fuzzy.table.to_dicts())
         print(f"{args.compact}: {n} bytes ({fuzzy.crisp.n_vertices} vertices)")
     if args.ros:
-        name = args.name or Path(args.map).stem
         # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
         scale = metres_per_unit(fuzzy.unit)
         ros_unit = "m" if scale else fuzzy.unit

@@ -35,7 +35,7 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
 
     from ..errors import ScanValueError
     from ..grid import beams_of, lattice
-    from ..rosmap import MAX_CELLS
+    from ..rosmap import MAX_CELLS, cell_count_text
 
     xy = np.array([s.pose[:2] for s in scans])
     reach = max(max_usable, no_return_free)
@@ -48,7 +48,7 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
         _, _, nx, ny = lattice(x.min(), y.min(), x.max(), y.max(), resolution)
     if nx * ny > MAX_CELLS:
         raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have "
-                                        f"{nx:.0f} × {ny:.0f} cells (limit {MAX_CELLS}): give a coarser --resolution")
+                                        f"{cell_count_text(nx)} × {cell_count_text(ny)} cells (limit {MAX_CELLS}): give a coarser --resolution")
 
 
 def run(args) -> int:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..fuzzy import memory_markdown
 from ._maps import add_map_argument, load_map
@@ -12,7 +13,8 @@ NAME = "memory"
 HELP = "print Table 5.3 for a map: fuzzy B-rep memory (thesis accounting and compact) vs occupancy grids"
 
 
-_cell = number(lambda c: c > 0, "cell size must be a number, got {text!r}", "cell size must be positive, got {text}")
+_cell = number(lambda c: 0 < c < math.inf, "cell size must be a number, got {text!r}",
+               "cell size must be a positive finite number, got {text}")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -23,10 +25,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     fuzzy = load_map(args)
-    cells = args.cell or [0.3, 0.2, 0.1]
+    rows = fuzzy.memory(args.cell or [0.3, 0.2, 0.1])  # before printing: an error is the only output
     c = fuzzy.crisp
     print(f"{args.map}: {c.n_vertices} vertices, {c.n_vertices} edges in {len(c.rings)} rings, "
           f"area {fuzzy.crisp_geometry.area:.6g} {c.unit}²")
     print()
-    print(memory_markdown(fuzzy.memory(cells)))
+    print(memory_markdown(rows))
     return 0

@@ -74,4 +74,10 @@ def _coordinate(v: float, step: float) -> str:
     if v == 0:  # -0.0 too
         return "0"
     digits = math.floor(math.log10(abs(v))) + 1 - math.floor(math.log10(step))
-    return f"{v:.{min(max(digits, 1), 17)}g}"
+    # enough digits on paper may not be enough read back: near 7e16, where floats lie 16 apart,
+    # 16 digits named a float 8 away from v with a step of 10; one more digit then
+    for d in range(min(max(digits, 1), 17), 17):
+        text = f"{v:.{d}g}"
+        if abs(float(text) - v) <= step / 2:
+            return text
+    return f"{v:.17g}"

@@ -40,6 +40,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..mapfile import check_outputs
+
+    check_outputs(args.out, args.world_out, args.umbmark_out)
     world, route, _ = world_and_route(args)
     robot = DiffDrive.pioneer_3dx(calibrated=not args.uncalibrated)
     overrides = {k: v for k, v in (("E_d", args.ed), ("E_b", args.eb), ("slip", args.slip)) if v is not None}

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..brep import KIND_NAMES
-from ..mapfile import write_atomic
+from ..mapfile import check_outputs, write_atomic
 from ._maps import add_map_argument, load_map
 
 NAME = "tables"
@@ -90,10 +90,14 @@ def run(args: argparse.Namespace) -> int:
         def num(x):
             return "" if not np.isfinite(x) else repr(float(x))
 
+        files = {}
         for k, name in enumerate(names):
-            write_atomic(out / f"vertices_{slug(name)}.csv", _csv(VERTEX_HEADER, vertex_rows(fuzzy, k, num)))
-            write_atomic(out / f"edges_{slug(name)}.csv", _csv(EDGE_HEADER, edge_rows(fuzzy, k, "")))
-        write_atomic(out / "membership_functions.csv", _csv(MF_HEADER, mf_rows(fuzzy, num)))
+            files[out / f"vertices_{slug(name)}.csv"] = _csv(VERTEX_HEADER, vertex_rows(fuzzy, k, num))
+            files[out / f"edges_{slug(name)}.csv"] = _csv(EDGE_HEADER, edge_rows(fuzzy, k, ""))
+        files[out / "membership_functions.csv"] = _csv(MF_HEADER, mf_rows(fuzzy, num))
+        check_outputs(*files)  # all before any: a failure leaves no partial set of tables
+        for path, data in files.items():
+            write_atomic(path, data)
         print(f"{out}: {2 * len(names) + 1} tables ({len(names)} rings)")
         return 0
 

@@ -47,6 +47,11 @@ def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
     # the ranges are not delimited: only the field count (7 numbers after them, then host and
     # logger timestamp, which old logs lack) shows a beam count that disagrees with the ranges,
     # which would otherwise shift ranges into the pose or the pose into the ranges
+    if len(parts) == need + 1 and not is_float(parts[need]):
+        # the host is there but not the logger timestamp after it: a line cut short (the last
+        # line of a log that was still being written), not a wrong beam count
+        raise BadLine(None, f"truncated: {len(parts)} fields, ending at the host {parts[need]!r}; a FLASER line "
+                            f"with {n} beams has {need + 2}, the logger timestamp last")
     if len(parts) not in (need, need + 2):
         raise BadLine("n", f"beam count {n} does not match the line's {len(parts)} fields (a FLASER line with {n} "
                            f"beams has {need + 2}, or {need} without host and logger timestamp)")

@@ -45,7 +45,9 @@ def _read_text(path: Path) -> str:
             raw = gzip.decompress(raw)
         except (EOFError, OSError) as e:
             raise ScanFormatError(path, None, f"gzip stream is truncated or corrupt ({e})") from None
-    return raw.decode("utf-8", errors="replace")
+    # utf-8-sig: a spreadsheet's "CSV UTF-8" starts with a byte-order mark, which would be read
+    # as part of the first column's name
+    return raw.decode("utf-8-sig", errors="replace")
 
 
 def read_csv(

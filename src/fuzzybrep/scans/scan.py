@@ -45,10 +45,20 @@ class Scan:
             raise ScanValueError(where, None, f"pose must be (x, y, heading), got {p.shape}")
         if not np.all(np.isfinite(p)):
             raise ScanValueError(where, None, f"pose is not finite: {p.tolist()}")
+        if r.size == 0:  # nothing to map, and every step after would reduce an empty array
+            raise ScanValueError(where, None, "a scan needs at least one beam")
+        if not np.isfinite(self.timestamp):  # it orders the evidence: NaN is neither older nor newer
+            raise ScanValueError(where, None, f"timestamp {self.timestamp!r} is not finite")
+        if not self.max_range > 0:  # NaN would make every beam "no return"
+            raise ScanValueError(where, None, f"max_range {self.max_range!r} must be positive (inf: every range is "
+                                              f"a return)")
         bad = ~np.isfinite(r) | (r < 0)
         if bad.any():
             i = int(np.argmax(bad))
             raise ScanValueError(where, None, f"beam {i} has range {float(r[i])!r} (NaN, infinite or negative)")
+        if not np.isfinite(b).all():  # NaN compares false: the checks below would pass it
+            i = int(np.argmax(~np.isfinite(b)))
+            raise ScanValueError(where, None, f"beam {i} has bearing {float(b[i])!r} (not finite)")
         if r.size >= 2 and np.any(np.diff(b) <= 0):
             raise ScanValueError(where, None, "bearings must increase strictly")
         if r.size and b[-1] - b[0] >= 2 * np.pi:

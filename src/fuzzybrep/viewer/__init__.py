@@ -24,7 +24,7 @@ import shapely
 
 from ..errors import MapFileError
 from ..export import coordinate_quantum
-from ..mapfile import write_atomic
+from ..mapfile import loads_json, write_atomic
 from ..sweep import polygonal
 
 FORMAT = "fuzzybrep-viewer"
@@ -39,7 +39,7 @@ def read_path(path: str | os.PathLike) -> np.ndarray:
     """(k, 2) planned path from a JSON file ``{"path": [[x, y], ...]}`` (what ``fuzzybrep plan`` writes)."""
     path = Path(path)
     try:
-        obj = json.loads(path.read_text(encoding="utf-8"))
+        obj = loads_json(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
     except json.JSONDecodeError as e:
