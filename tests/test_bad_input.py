@@ -328,6 +328,16 @@ def test_scan_far_from_the_rest_is_named(tmp_path, capsys, corrupt, words):
         fails(capsys, ["evaluate", log], *words)
 
 
+
+@pytest.mark.parametrize("command", ["grid", "evaluate"])
+def test_a_grid_too_large_from_a_corrupt_pose_names_the_scan(tmp_path, capsys, command):
+    # before: only "give a coarser --resolution", though no resolution would have helped
+    log = tmp_path / "a.log"
+    room_log(log, far_pose)
+    extra = ["--out", tmp_path / "g"] if command == "grid" else []
+    fails(capsys, [command, log, *extra], "a.log: a grid at resolution 0.05 over these scans would have ",
+          "the farthest out is the scan's position (100000, 0) in a.log:2, 1e+05 m from the median scan position")
+
 def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
     # before: an IndexError: at 1e300 a float cannot tell one 5 cm cell from the next
     log = tmp_path / "a.log"

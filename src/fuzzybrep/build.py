@@ -147,20 +147,28 @@ def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m"
               f"±{evidence.MAX_CELLS_FROM_ZERO * cell:.3g} {unit} of (0, 0)"
     else:
         return
-    hits = np.flatnonzero(rays.hit)
-    d_pose = np.hypot(rays.ox - centre[0], rays.oy - centre[1])
-    d_hit = np.full(len(d_pose), -np.inf)
-    d_hit[hits] = np.hypot(rays.hx - centre[0], rays.hy - centre[1])
-    ray = int(np.argmax(np.maximum(d_hit, d_pose)))
-    ends = np.cumsum([len(s.ranges) for s in scans])
-    k = int(np.searchsorted(ends, ray, side="right"))
+    what, d, source = farthest_out(scans, centre)
+    raise ScanValueError(source, None, f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+
+
+def farthest_out(scans: Sequence[Scan], centre) -> tuple[str, float, str]:
+    """What of the scans lies farthest from ``centre``, for a message on a map or grid too large to
+    hold: (the scan's position or one beam's return, its distance, the scan's source). A corrupt
+    range or pose is usually that one thing."""
+    best = (-1.0, 0, None)
+    for k, s in enumerate(scans):
+        d_pose = float(np.hypot(*(s.pose[:2] - centre)))
+        d_hit = np.hypot(*(s.endpoints()[s.returns] - centre).T)
+        i = int(np.argmax(d_hit)) if len(d_hit) else None
+        d = max(d_pose, float(d_hit[i]) if i is not None else -1.0)
+        if d > best[0]:
+            # the scan itself lies far out, not just what one beam saw
+            beam = None if i is None or d_pose >= d_hit[i] / 2 else int(np.flatnonzero(s.returns)[i])
+            best = (d, k, beam)
+    d, k, beam = best
     s = scans[k]
-    if d_pose[ray] >= d_hit[ray] / 2:  # the scan itself lies far out, not just what one beam saw
-        what, d = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})", d_pose[ray]
-    else:
-        what, d = f"beam {ray - (int(ends[k - 1]) if k else 0) + 1}'s return", d_hit[ray]
-    raise ScanValueError(s.source or f"scan {k}", None,
-                         f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+    what = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})" if beam is None else f"beam {beam + 1}'s return"
+    return what, d, s.source or f"scan {k}"
 
 
 def _named(scans: Sequence[Scan]) -> str:

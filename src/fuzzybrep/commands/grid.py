@@ -33,6 +33,7 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
     looked at, so that a grid which fits is never refused."""
     import numpy as np
 
+    from ..build import farthest_out
     from ..errors import ScanValueError
     from ..grid import beams_of, lattice
     from ..rosmap import MAX_CELLS, cell_count_text
@@ -47,8 +48,12 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
         x, y = np.concatenate((b.ox, b.ex)), np.concatenate((b.oy, b.ey))
         _, _, nx, ny = lattice(x.min(), y.min(), x.max(), y.max(), resolution)
     if nx * ny > MAX_CELLS:
+        # a corrupt range or pose makes a grid as large as a too fine resolution does: name what lies farthest out
+        what, d, source = farthest_out(scans, np.median(xy, axis=0))
         raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have "
-                                        f"{cell_count_text(nx)} × {cell_count_text(ny)} cells (limit {MAX_CELLS}): give a coarser --resolution")
+                                        f"{cell_count_text(nx)} × {cell_count_text(ny)} cells (limit {MAX_CELLS}): give a "
+                                        f"coarser --resolution; the farthest out is {what} in {source}, {d:.3g} m from the "
+                                        f"median scan position (is its range or pose corrupt?)")
 
 
 def run(args) -> int:
