@@ -7,12 +7,20 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from fuzzybrep.cli import main
 from fuzzybrep.fuzzy import FuzzyBRepMap
 from fuzzybrep.scans.read import read_scans
 
 REPO = Path(__file__).resolve().parents[1]
+
+# The property tests draw new examples on every run, so that running them keeps looking for
+# defects; CI (HYPOTHESIS_PROFILE=ci in .ci/run) draws the same examples every time, so that
+# whether main passes does not depend on the luck of the draw. A counterexample found by chance
+# is pinned with @example beside its fix.
+settings.register_profile("ci", derandomize=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
 def datasets_dir() -> Path | None:
