@@ -18,6 +18,8 @@ in one run:
 * prediction of held-out scans (every second held out): endpoints explained by the support band,
   violations (inside the safe region at α = 0), beyond; for the exact band and the thesis's sweep
   band; violations on small isolated objects (people, legs); free-space IoU against the grid;
+* peak memory: what building the map (build + fuzzify) needs beyond the read scans, against the
+  grid mapper, each in a fresh process (``peak.py``);
 * scaling: the pipeline on the first 1/8, 1/4, 1/2 and all scans of the largest log;
 * α-cuts on the largest map: reading them from the stored lines against GEOS buffer, and the
   sweep's approximation error against the exact fuzzification.
@@ -50,6 +52,7 @@ from fuzzybrep.fuzzy import compact_bytes, fuzzify  # noqa: E402
 from fuzzybrep.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
+import peak  # noqa: E402
 
 START, END = "<!-- benchmark:start -->", "<!-- benchmark:end -->"
 
@@ -116,6 +119,8 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
     print(f"[{name}] held-out evaluation", file=sys.stderr, flush=True)
     ev = E.evaluate_log(scans, 2, cfg)
     iou_all = E.free_space_iou(crisp.to_shapely(), grid)
+    print(f"[{name}] peak memory", file=sys.stderr, flush=True)
+    peaks = peak.measure(path)
     mem = {
         "compact": compact_bytes(fz),
         "thesis": 4 * (10 + 6) * crisp.n_vertices,
@@ -131,7 +136,7 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
         "area": crisp.area, "memory": mem,
         "all_scans": {"inside_shrunk": inside, "outside_grown": outside, "free_iou": iou_all,
                       "naive_union_inside_shrunk": naive_inside},
-        "held_out": ev.as_dict(),
+        "held_out": ev.as_dict(), "peak_memory": peaks,
     }
 
 
@@ -213,6 +218,9 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
         s = r["stages"]
         L.append(f"| {r['log']} | " + " | ".join(f"{s[k]:.2f}" for k in
                                                   ("read", "beams", "evidence", "scan polygons", "union", "edge kinds", "fuzzify")) + " |")
+    L += ["", "**Peak memory while building** (each in a fresh process; resident memory beyond what the process "
+          "held once the log was read: what a robot needs free to build the map on board)", "",
+          peak.markdown([(r["log"], r["peak_memory"]) for r in results]).rstrip("\n")]
     L += ["", "**Truthful free space, all scans** (endpoints closer than 5 m)", "",
           "| log | inside the free space shrunk by 0.2 m | outside it grown by 0.2 m | free-space IoU with the 5 cm grid | the same, inside a plain union of raw scan fans |",
           "|---|---:|---:|---:|---:|"]
