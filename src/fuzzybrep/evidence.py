@@ -56,7 +56,7 @@ class EvidenceConfig:
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
     chunk: int = 2_000_000  #: samples per batch, to bound memory
-    cache: int = 16_000_000  #: keep the ray samples between the two passes if there are no more
+    cache: int = 16_000_000  #: ray samples that could stop their ray kept between the two passes, at most
 
 
 @dataclass
@@ -68,7 +68,8 @@ class Evidence:
     shape: tuple[int, int]  # (ny, nx)
     hits: np.ndarray  # (ny*nx,) int32 number of returns per cell
     occupied: np.ndarray  # (ny*nx,) bool
-    samples: list | None = None  # the ray samples of ``gather``, for ``clip`` to reuse (then dropped)
+    samples: list | None = None  # per chunk of ``gather``, its samples that could stop a ray (or
+    # the chunk's range to sample again), for ``clip`` to reuse (then dropped)
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         ny, nx = self.shape
@@ -203,8 +204,13 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     g = _grid_rays(rays, ev, cfg.step)
     reach = rays.length - cfg.cross_margin
     # sample every ray once, to its full length: the crossings use the part short of its end, and
-    # clip (step 4) all of it, from memory when the samples fit in ``cfg.cache``
-    keep = np.ceil(np.maximum(rays.length, 0) / cfg.step).sum() <= cfg.cache
+    # clip (step 4) all of it. Only a cell that was hit can turn out occupied, so clip needs just
+    # the samples in hit cells, and all of those of no-return beams (a bridge crosses empty
+    # cells): a small part of them, kept in memory when they fit in a chunk's share of ``cfg.cache``
+    total = max(np.ceil(np.maximum(rays.length, 0) / cfg.step).sum(), 1.0)
+    can_stop = hits > 0
+    claims = ~rays.hit & (rays.length > 0)
+    claims = claims if claims.any() else None
 
     def crossings(chunk):
         lo, hi = chunk
@@ -216,12 +222,15 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
         first_in_cell = np.r_[True, (c_[1:] != c_[:-1]) | (r_[1:] != r_[:-1])][: len(c_)]
         c_, t = c_[first_in_cell], rays.time[r_[first_in_cell]]
         counts = np.bincount(c_[t > last_near[c_]], minlength=nx * ny), np.bincount(c_, minlength=nx * ny)
-        return counts, ((lo, hi), ray, k, c) if keep else None
+        stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
+        if len(stop) > cfg.cache * len(ray) / total:
+            return counts, (lo, hi)
+        return counts, ((lo, hi), ray[stop], k[stop], c[stop])
 
     parts = _parallel(crossings, _chunks(rays.length, cfg))
     after_near = sum(p[0][0] for p in parts)
     crossed = sum(p[0][1] for p in parts)
-    ev.samples = [p[1] for p in parts] if keep else None
+    ev.samples = [p[1] for p in parts]
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
     # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
@@ -269,7 +278,7 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and claims.any() else None
 
     def first_conflict(chunk):
-        if len(chunk) == 4:  # kept by gather
+        if len(chunk) == 4:  # kept by gather: the samples that could stop their rays
             _, ray, k, c = chunk
         else:
             lo, hi = chunk
