@@ -288,24 +288,32 @@ def rings_to_shapely(rings: list[Ring]) -> np.ndarray:
     return shapely.polygons(shapely.linearrings(coords, indices=idx))
 
 
-def union(polygons) -> shapely.Geometry:
+def union(polygons, simplify: float = 0.0) -> shapely.Geometry:
     """Union of scan polygons (thesis 3.2.2, 3.2.3), by GEOS's cascaded union.
 
     Uniting all at once gives the same set as uniting them one after another into the map, in
     any order, but in O(n log n) instead of O(n²). Holes form where the union encloses space no
-    scan saw free.
+    scan saw free. Each polygon is first simplified within ``simplify`` (topology kept), if given.
     """
     polys = np.asarray(polygons, dtype=object)
-    bad = ~shapely.is_valid(polys)
-    if bad.any():
-        polys = polys.copy()
-        polys[bad] = shapely.make_valid(polys[bad])
+
+    def unite(part):
+        # simplifying and checking go polygon by polygon, so each part's worker does its own
+        if simplify > 0:
+            part = shapely.simplify(part, simplify)
+        bad = ~shapely.is_valid(part)
+        if bad.any():
+            part = part.copy()
+            part[bad] = shapely.make_valid(part[bad])
+        return shapely.union_all(part)
+
     workers = os.cpu_count() or 1
     if workers > 1 and len(polys) >= 64:
         # GEOS releases the GIL: unite parts on every core, then unite the parts
         with ThreadPoolExecutor(workers) as ex:
-            polys = np.array(list(ex.map(shapely.union_all, np.array_split(polys, workers))), dtype=object)
-    return polygonal(shapely.union_all(polys))
+            polys = np.array(list(ex.map(unite, np.array_split(polys, workers))), dtype=object)
+        return polygonal(shapely.union_all(polys))
+    return polygonal(unite(polys))
 
 
 def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplify: float = 0.0):

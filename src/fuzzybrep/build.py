@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
-import shapely
 
 from . import brep, evidence
 from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
@@ -104,7 +103,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
     with timer("union"):
         polys = brep.rings_to_shapely([p.ring for p in polygons])
         # a centimetre is nothing against TME, and halves what GEOS has to overlay
-        geom = brep.union(shapely.simplify(polys, config.presimplify) if config.presimplify > 0 else polys)
+        geom = brep.union(polys, simplify=config.presimplify)
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
         geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)

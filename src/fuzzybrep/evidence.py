@@ -56,7 +56,7 @@ class EvidenceConfig:
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
     chunk: int = 2_000_000  #: samples per batch, to bound memory
-    cache: int = 16_000_000  #: keep the ray samples between the two passes if there are no more
+    cache: int = 16_000_000  #: ray samples that could stop their ray kept between the two passes, at most
 
 
 @dataclass
@@ -68,7 +68,8 @@ class Evidence:
     shape: tuple[int, int]  # (ny, nx)
     hits: np.ndarray  # (ny*nx,) int32 number of returns per cell
     occupied: np.ndarray  # (ny*nx,) bool
-    samples: list | None = None  # the ray samples of ``gather``, for ``clip`` to reuse (then dropped)
+    samples: list | None = None  # per chunk of ``gather``, its samples that could stop a ray (or
+    # the chunk's range to sample again), for ``clip`` to reuse (then dropped)
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         ny, nx = self.shape
@@ -136,19 +137,37 @@ def _grid_rays(rays: Rays, ev: "Evidence", step: float):
     return gx, gy, (rays.cos * step / ev.cell).astype(f32), (rays.sin * step / ev.cell).astype(f32)
 
 
-def _sample_cells(g, nx: int, length: np.ndarray, lo: int, hi: int, step: float):
-    """The cell of every sample along rays lo..hi, one every ``step`` up to ``length``.
+def _sample_counts(length: np.ndarray, step: float) -> np.ndarray:
+    """Samples of every ray: one every ``step`` up to ``length``."""
+    return np.ceil(np.maximum(length, 0.0) / step).astype(np.int64)
+
+
+def _samples_short_of(x: np.ndarray, step: float, count: np.ndarray) -> np.ndarray:
+    """Per ray, how many of its ``count`` samples k lie short of x (k * step < x), as int32.
+
+    k * step grows with k, so they are the first ones, and a comparison of k with this count
+    takes the place of one in floating point; ceil(x / step) is off by one at most.
+    """
+    n = np.clip(np.ceil(x / step), 0, count).astype(np.int64)
+    n -= (n > 0) & ((n - 1) * step >= x)
+    n += (n < count) & (n * step < x)
+    return n.astype(np.int32)
+
+
+def _sample_cells(g, nx: int, count: np.ndarray, lo: int, hi: int):
+    """The cell of every sample along rays lo..hi (``count`` samples each, see _sample_counts).
 
     Returns ray index, step index and cell index of every sample (ragged, flattened). The grid
-    covers every ray's whole length, so no sample needs clamping.
+    covers every ray's whole length, so no sample needs clamping. Each ray's values are spread to
+    its samples by np.repeat, which streams, where indexing by ray would gather.
     """
     gx, gy, dx, dy = g
-    count = np.ceil(np.maximum(length[lo:hi], 0.0) / step).astype(np.int64)
-    ray = np.repeat(np.arange(lo, hi, dtype=np.int32), count)
-    k = spans(np.zeros(len(count), np.int32), count).astype(np.int32)
+    n = count[lo:hi]
+    ray = np.repeat(np.arange(lo, hi, dtype=np.int32), n)
+    k = np.arange(len(ray), dtype=np.int32) - np.repeat((np.cumsum(n) - n).astype(np.int32), n)
     kf = k.astype(np.float32)
-    cx = (gx[ray] + kf * dx[ray]).astype(np.int32)
-    cy = (gy[ray] + kf * dy[ray]).astype(np.int32)
+    cx = (np.repeat(gx[lo:hi], n) + kf * np.repeat(dx[lo:hi], n)).astype(np.int32)
+    cy = (np.repeat(gy[lo:hi], n) + kf * np.repeat(dy[lo:hi], n)).astype(np.int32)
     return ray, k, cy * np.int32(nx) + cx
 
 
@@ -216,27 +235,38 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     hits_near = ndimage.uniform_filter(hits.reshape(ny, nx).astype(np.float64), size=3).ravel() * 9
 
     g = _grid_rays(rays, ev, cfg.step)
-    reach = rays.length - cfg.cross_margin
     # sample every ray once, to its full length: the crossings use the part short of its end, and
-    # clip (step 4) all of it, from memory when the samples fit in ``cfg.cache``
-    keep = np.ceil(np.maximum(rays.length, 0) / cfg.step).sum() <= cfg.cache
+    # clip (step 4) all of it. Only a cell that was hit can turn out occupied, so clip needs just
+    # the samples in hit cells, and all of those of no-return beams (a bridge crosses empty
+    # cells): a small part of them, kept in memory when they fit in a chunk's share of ``cfg.cache``
+    count = _sample_counts(rays.length, cfg.step)
+    total = max(int(count.sum()), 1)
+    short = _samples_short_of(rays.length - cfg.cross_margin, cfg.step, count)
+    can_stop = hits > 0
+    claims = ~rays.hit & (rays.length > 0)
+    claims = claims if claims.any() else None
 
     def crossings(chunk):
         lo, hi = chunk
-        ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
-        short = k * cfg.step < reach[ray]
-        r_, c_ = ray[short], c[short]
+        ray, k, c = _sample_cells(g, nx, count, lo, hi)
+        crossing = k < np.repeat(short[lo:hi], count[lo:hi])
+        r_, c_ = ray[crossing], c[crossing]
         # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
         # (a chunk whose rays all end within cross_margin crosses nothing)
-        first_in_cell = np.r_[True, (c_[1:] != c_[:-1]) | (r_[1:] != r_[:-1])][: len(c_)]
+        first_in_cell = np.ones(len(c_), bool)
+        np.not_equal(c_[1:], c_[:-1], out=first_in_cell[1:])
+        first_in_cell[1:] |= r_[1:] != r_[:-1]
         c_, t = c_[first_in_cell], rays.time[r_[first_in_cell]]
         counts = np.bincount(c_[t > last_near[c_]], minlength=nx * ny), np.bincount(c_, minlength=nx * ny)
-        return counts, ((lo, hi), ray, k, c) if keep else None
+        stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
+        if len(stop) > cfg.cache * len(ray) / total:
+            return counts, (lo, hi)
+        return counts, ((lo, hi), ray[stop], k[stop], c[stop])
 
     parts = _parallel(crossings, _chunks(rays.length, cfg))
     after_near = sum(p[0][0] for p in parts)
     crossed = sum(p[0][1] for p in parts)
-    ev.samples = [p[1] for p in parts] if keep else None
+    ev.samples = [p[1] for p in parts]
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
     # something (a mixed pixel, pose jitter, a leg passing), not evidence of standing
@@ -277,6 +307,7 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     """Each ray's free range, stopped at the first occupied cell in front of its own end (step 4)."""
     out = rays.length.copy()
     g = _grid_rays(rays, ev, cfg.step)
+    count = _sample_counts(rays.length, cfg.step)
     # evidence at the beam's own end is its own return, not a conflict
     own_end = np.where(rays.hit, rays.hit_range, np.inf) - cfg.own_margin
     nx = ev.shape[1]
@@ -284,11 +315,11 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and claims.any() else None
 
     def first_conflict(chunk):
-        if len(chunk) == 4:  # kept by gather
+        if len(chunk) == 4:  # kept by gather: the samples that could stop their rays
             _, ray, k, c = chunk
         else:
             lo, hi = chunk
-            ray, k, c = _sample_cells(g, nx, rays.length, lo, hi, cfg.step)
+            ray, k, c = _sample_cells(g, nx, count, lo, hi)
         d = k * cfg.step
         occ = ev.occupied[c] if wide is None else np.where(rays.hit[ray], ev.occupied[c], wide[c])
         occ &= d < own_end[ray]

@@ -175,14 +175,15 @@ def _extend(points: np.ndarray, a: int, b: int, e: int, tol: float) -> int:
     """Grow a line [a, b) along a long wall: refit, then take the following points within tol."""
     while b < e:
         p = points[a:b]
-        c = p.mean(axis=0)
+        c = np.add.reduce(p, axis=0) / (b - a)  # p.mean(axis=0) without its wrapper: run very often
         d = p - c
         # total least squares: the normal is the direction of least spread
         phi = 0.5 * np.arctan2(2 * np.dot(d[:, 0], d[:, 1]), np.dot(d[:, 0], d[:, 0]) - np.dot(d[:, 1], d[:, 1]))
         nx, ny = -np.sin(phi), np.cos(phi)
         dist = np.abs((points[b:e, 0] - c[0]) * nx + (points[b:e, 1] - c[1]) * ny)
-        off = np.flatnonzero(dist > tol)
-        grow = int(off[0]) if off.size else e - b
+        off = dist > tol
+        first = int(off.argmax())
+        grow = first if off[first] else e - b
         if grow == 0:
             break
         b += grow

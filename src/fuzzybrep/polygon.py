@@ -85,13 +85,19 @@ def scan_polygons(
     pose = B.poses[scan_of]
     ct, st = np.cos(pose[:, 2]), np.sin(pose[:, 2])
     world = np.column_stack((pose[:, 0] + ct * xy[:, 0] - st * xy[:, 1], pose[:, 1] + st * xy[:, 0] + ct * xy[:, 1]))
+    # each scan's share of the vertices and lines, its lines counted from its own first beam:
+    # worked out for all scans at once, so that the loop only cuts slices
+    world, kinds = world[keep], kinds[keep]
+    bounds = np.r_[0, np.cumsum(keep)][bounds]
+    line_bounds = np.searchsorted(lines.start, B.offsets)
+    first = np.repeat(B.offsets[:-1], np.diff(line_bounds))
+    start, stop = lines.start - first, lines.stop - first
     out = []
     for k in range(len(scans)):
-        sl = slice(bounds[k], bounds[k + 1])
-        m = keep[sl]
-        lo, hi = np.searchsorted(lines.start, [B.offsets[k], B.offsets[k + 1]])
-        own = Lines(lines.start[lo:hi] - B.offsets[k], lines.stop[lo:hi] - B.offsets[k], lines.theta[lo:hi], lines.rho[lo:hi])
-        out.append(ScanPolygon(Ring(world[sl][m], kinds[sl][m]), own))
+        v, w = bounds[k], bounds[k + 1]
+        lo, hi = line_bounds[k], line_bounds[k + 1]
+        own = Lines(start[lo:hi], stop[lo:hi], lines.theta[lo:hi], lines.rho[lo:hi])
+        out.append(ScanPolygon(Ring(world[v:w], kinds[v:w]), own))
     return out
 
 
