@@ -4,7 +4,7 @@
 
 Each measurement runs in a fresh Python process, which reads the log and then builds one thing:
 the crisp map and its fuzzification (``build_map`` + ``fuzzify``, as ``fuzzybrep build`` does), or
-the 5 cm log-odds grid (``occupancy_grid``). The process's peak resident memory (``ru_maxrss``)
+the 5 cm log-odds grid (``occupancy_grid``). The process's peak resident memory (Linux's VmHWM)
 after the read and after the build give the memory the build needed beyond the scans it was
 given: what a robot must have free to build its map on board. A peak is a high-water mark, so it
 moves little with the machine's load, unlike a time.
@@ -21,12 +21,18 @@ sys.path.insert(0, str(HERE))
 
 from grid import LOGS, SEARCHED, datasets  # noqa: E402
 
-#: runs in the fresh process: prints the peak (KiB) after the read and after the build
+#: runs in the fresh process: prints the peak (KiB) after the read and after the build. VmHWM,
+#: not getrusage's ru_maxrss: Linux carries ru_maxrss over fork and exec, so a child of a large
+#: process (run.py, after building Freiburg) would report its parent's peak; VmHWM is the
+#: high-water mark of the child's own memory
 _CHILD = """
-import resource, sys
+import sys
+def peak():
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 from fuzzybrep.scans.read import read_scans
 scans = read_scans(sys.argv[1])
-read = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+read = peak()
 if sys.argv[2] == "map":
     from fuzzybrep.build import build_map
     from fuzzybrep.fuzzy import fuzzify
@@ -34,7 +40,7 @@ if sys.argv[2] == "map":
 else:
     from fuzzybrep.grid import occupancy_grid
     occupancy_grid(scans, 0.05)
-print(read, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+print(read, peak())
 """
 
 

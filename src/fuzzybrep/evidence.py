@@ -259,8 +259,14 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
         first_in_cell = np.ones(len(c_), bool)
         np.not_equal(c_[1:], c_[:-1], out=first_in_cell[1:])
         first_in_cell[1:] |= r_[1:] != r_[:-1]
-        c_, t = c_[first_in_cell], rays.time[r_[first_in_cell]]
-        counts = np.bincount(c_[t > last_near[c_]], minlength=nx * ny), np.bincount(c_, minlength=nx * ny)
+        c_ = c_[first_in_cell]
+        newer = rays.time[r_[first_in_cell]] > last_near[c_]
+        # counted over the cells from the chunk's first to its last only: a chunk is a few scans
+        # from one place, and two counts over the whole grid per chunk cost more than its samples
+        first = int(c_.min()) if len(c_) else 0
+        c_ -= first
+        span = int(c_.max()) + 1 if len(c_) else 0
+        counts = first, np.bincount(c_[newer], minlength=span), np.bincount(c_, minlength=span)
         stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
         if len(stop) > cfg.cache * len(ray) / total:
             return counts, (lo, hi)
@@ -269,9 +275,9 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     after_near = np.zeros(nx * ny, np.int64)
     crossed = np.zeros(nx * ny, np.int64)
     ev.samples = []
-    for (near, all_), kept in _parallel(crossings, _chunks(rays.length, cfg)):
-        after_near += near
-        crossed += all_
+    for (first, near, all_), kept in _parallel(crossings, _chunks(rays.length, cfg)):
+        after_near[first : first + len(near)] += near
+        crossed[first : first + len(all_)] += all_
         ev.samples.append(kept)
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
