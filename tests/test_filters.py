@@ -125,3 +125,18 @@ def test_small_objects_on_a_full_turn_have_no_seam():
     # no object, one surface all round, or one split by the seam's depth jump: nothing small
     assert not evaluate.small_objects([full_turn_scan(np.full(360, 3.0))]).any()
     assert not evaluate.small_objects([full_turn_scan(np.linspace(2.0, 4.0, 360))]).any()
+
+
+def test_scans_filtered_in_rows_of_a_few_give_what_all_at_once_give(monkeypatch):
+    # classify_all filters at most _ROWS scans at a time, to bound its memory; rows are independent
+    rng = np.random.default_rng(3)
+    b = even_bearings(37)
+    scans = [Scan(np.where(rng.random(37) < 0.1, 9.0, rng.uniform(0.2, 9.5, 37)), b,
+                  np.array([0.1 * k, 0.0, 0.2 * k]), float(k), 9.0) for k in range(11)]
+    scans += [Scan(rng.uniform(0.5, 3.0, 12), even_bearings(12, np.pi / 2), np.zeros(3), 20.0 + k, 9.0) for k in range(4)]
+    at_once = filters.classify_all(scans)
+    monkeypatch.setattr(filters, "_ROWS", 3)
+    for (f0, s0), (f1, s1) in zip(at_once, filters.classify_all(scans)):
+        np.testing.assert_array_equal(f0, f1)
+        np.testing.assert_array_equal(s0, s1)
+    assert sum(int((s == CLIPPED).sum()) for _, s in at_once) > 0  # the spike filter did cut beams

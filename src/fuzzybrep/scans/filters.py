@@ -50,6 +50,9 @@ def classify(scan: Scan, cfg: BeamConfig = BeamConfig(),
     return classify_all([scan], cfg, polygon)[0]
 
 
+_ROWS = 512  # scans filtered together (classify_all)
+
+
 def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig(),
                  polygon: PolygonConfig = PolygonConfig()) -> list[tuple[np.ndarray, np.ndarray]]:
     """(free, status) of every beam of every scan; scans with the same beam count go together.
@@ -60,7 +63,11 @@ def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig(),
     groups: dict[tuple[int, bool], list[int]] = {}
     for k, s in enumerate(scans):
         groups.setdefault((len(s.ranges), s.full_circle), []).append(k)
-    for (n, full), idx in groups.items():
+    # rows of at most _ROWS scans: the spike filter's temporaries are some ten times the ranges
+    # (182 MB for Freiburg's 4791 scans at once), and rows are filtered each on its own
+    parts = [(full, idx[lo : lo + _ROWS]) for (_, full), idx in groups.items() for lo in range(0, len(idx), _ROWS)]
+    for full, idx in parts:
+        n = len(scans[idx[0]].ranges)
         r = np.stack([scans[k].ranges for k in idx])
         mr = np.array([scans[k].max_range for k in idx])[:, None]
         ret = (r < mr) & (r > 0)
