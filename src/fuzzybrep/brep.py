@@ -38,11 +38,12 @@ def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
 
 
 #: maps with coordinates beyond ± this are refused (``validate_ring``; ``membership`` and the
-#: planner check the maps they are given too): μ (``sweep.band_parameter``) and GEOS's triangulation multiply four coordinates together, which
-#: passes the largest float (1.8e308) from about 1e77 on (a map 1e75 across planned; at 1e80 the
-#: triangulation overflowed, Qhull failed and μ came out wrong), and distances to a point beyond
-#: 1e154 overflow
+#: planner check the maps they are given too): μ (``sweep.band_parameter``) and GEOS's
+#: triangulation multiply four coordinates together, which passes the largest float (1.8e308)
+#: from about 1e77 on (a map 1e75 across planned; at 1e80 the triangulation overflowed, Qhull
+#: failed and μ came out wrong), and distances to a point beyond 1e154 overflow
 LARGEST = 1e60
+
 
 @dataclass(frozen=True, eq=False)
 class Ring:
