@@ -7,12 +7,13 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from fuzzybrep import cli
-from fuzzybrep.grid import (CLAMP, FREE, L_FREE, L_OCC, OCCUPIED, UNKNOWN, OccupancyGrid, logit, occupancy_grid,
-                            segment_cells)
+from fuzzybrep import grid
+from fuzzybrep.grid import (CLAMP, FREE, L_FREE, L_OCC, OCCUPIED, UNKNOWN, OccupancyGrid, cell_runs, logit,
+                            occupancy_grid, traverse_counts)
 from fuzzybrep.rosmap import grid_image, read_ros_map, write_grid
 from fuzzybrep.scans.read import read_scans
 from fuzzybrep.scans.scan import Scan
@@ -84,34 +85,91 @@ def reference_counts(scans, grid: OccupancyGrid, max_usable=8.0, no_return_free=
 segments = st.tuples(st.floats(20, 80), st.floats(20, 80), st.floats(-math.pi, math.pi), st.floats(0, 15))
 
 
+def floor(z):
+    return np.floor(np.asarray(z, float)).astype(np.int64)
+
+
+def runs_cells(ou, ov, eu, ev, xy: bool) -> list[tuple[int, int]]:
+    """The (x, y) cells of one segment, from its runs of columns (``xy``) or of rows."""
+    d = np.array([eu - ou, ev - ov]) / (math.hypot(eu - ou, ev - ov) or 1.0)
+    u, v, du, dv, e = ((ou, ov, d[0], d[1], (eu, ev)) if xy else (ov, ou, d[1], d[0], (ev, eu)))
+    line, lo, hi = cell_runs(*(np.array([z]) for z in (u, v, du, dv)), floor([u]), floor([v]), floor([e[0]]),
+                             floor([e[1]]), xy=xy)
+    cells = [(int(i), j) for i, a, b in zip(line, lo, hi) for j in range(int(a), int(b) + 1)]
+    return cells if xy else [(j, i) for i, j in cells]
+
+
+def assert_chain(cells, ou, ov, eu, ev):
+    """A 4-connected chain from the start cell to the end cell, each cell once, each within
+    rounding of the segment: what any exact traversal must give."""
+    (x0, y0), (x1, y1) = (math.floor(ou), math.floor(ov)), (math.floor(eu), math.floor(ev))
+    sx, sy = (1 if x1 >= x0 else -1), (1 if y1 >= y0 else -1)
+    # along a monotone chain each step moves one cell towards the end
+    ordered = sorted(cells, key=lambda c: sx * (c[0] - x0) + sy * (c[1] - y0))
+    assert [sx * (x - x0) + sy * (y - y0) for x, y in ordered] == list(range(abs(x1 - x0) + abs(y1 - y0) + 1))
+    assert ordered[0] == (x0, y0) and ordered[-1] == (x1, y1)
+    assert all(abs(a[0] - b[0]) + abs(a[1] - b[1]) == 1 for a, b in zip(ordered, ordered[1:]))
+    seg = shapely.LineString([(ou, ov), (eu, ev)]) if (ou, ov) != (eu, ev) else shapely.Point(ou, ov)
+    for x, y in cells:
+        assert shapely.box(x, y, x + 1, y + 1).distance(seg) < 1e-9
+
+
+def near_a_corner(ou, ov, eu, ev, eps=1e-9) -> bool:
+    """Whether the segment passes within eps of a cell corner, where which boundary it crosses
+    first is down to rounding (in the reference walk as much as in the code under test)."""
+    xs = np.arange(math.floor(min(ou, eu)), math.floor(max(ou, eu)) + 2)
+    ys = np.arange(math.floor(min(ov, ev)), math.floor(max(ov, ev)) + 2)
+    corners = shapely.points(np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2))
+    seg = shapely.LineString([(ou, ov), (eu, ev)]) if (ou, ov) != (eu, ev) else shapely.Point(ou, ov)
+    return bool((shapely.distance(corners, seg) < eps).any())
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.lists(segments, min_size=1, max_size=20))
-def test_traversal_matches_the_reference_walk_and_visits_each_cell_once(segs):
+# starts on the line x = 20 within 1.4e-14 of the corner (20, 21): the textbook traversal, crossings
+# of vertical and horizontal lines computed apart, gave the broken chain (20,20), (19,20), (20,21)
+@example([(20.0, 20.999999999999986, 1.625, 1.0)])
+@example([(47.0, 79.0000000001, -1.5707963267948977, 9.679958150012899)])  # x = 47 - 7e-15 at the end
+def test_cell_runs_are_an_unbroken_chain_and_match_the_reference_walk(segs):
+    ou, ov, a, length = (np.array(c, float) for c in zip(*segs))
+    eu, ev = ou + length * np.cos(a), ov + length * np.sin(a)
+    for k in range(len(segs)):
+        want = walk_cells(ou[k], ov[k], eu[k], ev[k])
+        for xy in (True, False):  # by columns and by rows
+            got = runs_cells(ou[k], ov[k], eu[k], ev[k], xy)
+            assert_chain(got, ou[k], ov[k], eu[k], ev[k])
+            if not near_a_corner(ou[k], ov[k], eu[k], ev[k]):
+                assert sorted(got) == sorted(want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(segments, min_size=1, max_size=40), st.sampled_from([1, 2]))
+def test_traverse_counts_add_up_every_segments_cells(segs, workers):
     ou, ov, a, length = (np.array(c, float) for c in zip(*segs))
     du, dv = np.cos(a), np.sin(a)
     eu, ev = ou + length * du, ov + length * dv
-    f = lambda z: np.floor(z).astype(np.int64)  # noqa: E731
-    nx = 200
+    nx = ny = 100
+    want = np.zeros(nx * ny, np.int64)
     for k in range(len(segs)):
-        one = slice(k, k + 1)
-        got = segment_cells(ou[one], ov[one], du[one], dv[one], f(ou[one]), f(ov[one]), f(eu[one]), f(ev[one]), nx)
-        want = [iy * nx + ix for ix, iy in walk_cells(ou[k], ov[k], eu[k], ev[k])]
-        assert len(set(got.tolist())) == len(got), "a cell counted twice for one segment"
-        assert sorted(got.tolist()) == sorted(want)
-    # all at once gives the same multiset as one at a time
-    allc = segment_cells(ou, ov, du, dv, f(ou), f(ov), f(eu), f(ev), nx)
-    assert sorted(allc.tolist()) == sorted(
-        iy * nx + ix for k in range(len(segs)) for ix, iy in walk_cells(ou[k], ov[k], eu[k], ev[k]))
+        xy = abs(floor(ev[k]) - floor(ov[k])) > abs(floor(eu[k]) - floor(ou[k]))  # as traverse_counts takes it
+        for x, y in runs_cells(ou[k], ov[k], eu[k], ev[k], bool(xy)):
+            want[y * nx + x] += 1
+    old, grid._CHUNK = grid._CHUNK, 7  # many batches, shared by the threads
+    try:
+        got = traverse_counts(ou, ov, eu, ev, du, dv, nx, ny, workers)
+    finally:
+        grid._CHUNK = old
+    np.testing.assert_array_equal(got, want)
 
 
 def test_segment_through_cell_corners_gives_a_four_connected_path_without_repeats():
-    # from a cell corner at 45° the segment meets only corners: each is crossed as two steps
-    ou = ov = np.array([10.0])
-    d = np.array([math.sqrt(0.5)])
-    cells = segment_cells(ou, ov, d, d, np.array([10]), np.array([10]), np.array([13]), np.array([13]), 100)
-    xy = sorted((c % 100, c // 100) for c in cells.tolist())
-    assert len(xy) == len(set(xy)) == 7  # (10,10) then 3 diagonal steps of two moves each
-    assert (13, 13) in xy and (10, 10) in xy
+    # from a cell corner at 45° the segment meets only corners: each is crossed as two steps,
+    # the horizontal boundary first, whether the segment is taken by columns or by rows
+    for xy in (True, False):
+        cells = runs_cells(10.0, 10.0, 13.0, 13.0, xy)
+        assert sorted(cells) == [(10, 10), (10, 11), (11, 11), (11, 12), (12, 12), (12, 13), (13, 13)]
+        assert sorted(runs_cells(13.0, 13.0, 10.0, 10.0, xy)) == [(10, 10), (11, 10), (11, 11), (12, 11), (12, 12),
+                                                                   (13, 12), (13, 13)]
 
 
 # ------------------------------------------------------------------------- inverse sensor model
