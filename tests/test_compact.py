@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
 from fuzzybrep import BRepMap, MapFileError, Region, Ring
 from fuzzybrep.compact import decode, decode_varints, encode, encode_varints, read_compact, write_compact
-from fuzzybrep.fuzzy import compact_bytes, fuzzify
+from fuzzybrep.fuzzy import compact_bytes, fuzzify, validate_map
 from fuzzybrep.membership import Triangular
 
 
@@ -123,3 +124,36 @@ def test_compact_map_with_a_self_intersecting_ring_names_file_and_vertex(tmp_pat
     p.write_bytes(encode(bowtie, []))
     with pytest.raises(MapFileError, match="bow.fbrc: principal, vertex .*self-intersecting"):
         read_compact(p)
+
+
+def notched_map() -> BRepMap:
+    """Two valid rooms with features finer than 1 mm: a V-shaped notch whose tip ends 0.4 mm
+    above the floor, and two ceiling vertices 0.3 mm apart. Rounded to 1 mm, the notch's tip
+    lands on the floor (a ring touching itself) and the two vertices become one."""
+    notch = Ring(np.array([(0, 0), (10, 0), (10, 10), (6, 10), (5, 0.0004), (4, 10), (0, 10)]), [0, 1, 0, 0, 1, 0, 0])
+    close = Ring(np.array([(20, 0), (30, 0), (30, 10), (25.0003, 10), (25, 10), (20, 10)]), [0, 1, 0, 0, 0, 1])
+    return BRepMap((Region(notch), Region(close)), "m")
+
+
+def test_features_finer_than_the_quantum_still_decode_to_a_valid_map(tmp_path):
+    m = notched_map()
+    validate_map(m)
+    p = tmp_path / "notch.fbrc"
+    write_compact(p, m, [])
+    crisp, _ = read_compact(p)  # a map that cannot be read back is no map
+    validate_map(crisp)
+    a, b = m.to_shapely(), crisp.to_shapely()
+    assert abs(a.area - b.area) < 0.01 and shapely.hausdorff_distance(a.boundary, b.boundary) <= 0.001
+    # every edge keeps the kind of the edge it came from: the frontier (1) edges are still there
+    assert {int(k) for r in crisp.rings for k in r.kinds} == {0, 1}
+
+
+def test_compact_maps_of_the_real_logs_read_back(built_map, tmp_path):
+    for name in ("intel", "aces"):
+        path, fz = built_map(name)
+        p = tmp_path / f"{name}.fbrc"
+        write_compact(p, fz.crisp, fz.table.to_dicts())
+        crisp, mfs = read_compact(p)
+        assert mfs == fz.table.to_dicts()
+        assert abs(crisp.area - fz.crisp.area) < 1e-4 * fz.crisp.area
+        fuzzify(crisp, fz.table).alpha_cut(0.0)

@@ -8,7 +8,8 @@ follow from these in O(n) (thesis 4.1.2, 4.2), so storing them would store the s
 Coordinates are quantised to ``quantum`` (1 mm for maps in metres: 0.5% of the thesis's TME)
 and written as zigzag LEB128 varints of the step from the previous vertex, so an edge of a few
 centimetres to two metres takes 2 to 4 bytes. Decoding gives every vertex back within
-quantum / 2.
+quantum / 2; a map with detail finer than the quantum (which rounding would make cross itself)
+is snap-rounded instead, so that it always reads back as a valid map (``snap_rounded``).
 
 Layout (little-endian)::
 
@@ -28,9 +29,11 @@ import json
 import os
 
 import numpy as np
+import shapely
 
 from .brep import BRepMap, Region, Ring, frontier_fm
-from .errors import MapFileError
+from .errors import GeometryError, MapFileError
+from .fuzzy import validate_map
 from .mapfile import check_map, loads_json, write_atomic
 
 MAGIC = b"FBRC"
@@ -99,6 +102,50 @@ def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | No
     derived = all(np.array_equal(r.fm, fm_from_kinds(r.kinds)) for r in rings) and len(membership_functions) == 2
     uniform = all(np.all(r.fm == 1) for r in rings) and len(membership_functions) <= 1
     fm_mode = FM_FROM_KINDS if derived or uniform else FM_EXPLICIT
+    data = _encode(crisp, membership_functions, q, fm_mode)
+    try:
+        validate_map(decode(data)[0])
+    except GeometryError:
+        try:
+            validate_map(crisp)
+        except GeometryError:
+            return data  # invalid as given: the reader names the ring and vertex
+        # Features finer than the quantum (a vertex within q/2 of another edge, a spike back along
+        # its own edge 1e-15 away, as GEOS leaves them on real maps) cross or
+        # collapse when rounded, and the file could not be read back. Snap rounding keeps the
+        # map valid on the grid of the quantum.
+        data = _encode(snap_rounded(crisp, q, fm_mode, uniform), membership_functions, q, fm_mode)
+    return data
+
+
+def snap_rounded(crisp: BRepMap, q: float, fm_mode: int = FM_EXPLICIT, uniform: bool = False) -> BRepMap:
+    """``crisp`` snap-rounded by GEOS to the grid of ``q`` (valid, every vertex on the grid, the
+    boundary moved by at most about q/2), each edge with the kind of the crisp edge nearest its
+    middle and each vertex with the FM of the nearest crisp vertex (or as the kinds give it)."""
+    snapped = BRepMap.from_shapely(shapely.set_precision(crisp.to_shapely(), q), crisp.unit)
+    old = crisp.rings
+    a = np.vstack([r.vertices for r in old])
+    b = np.vstack([np.roll(r.vertices, -1, axis=0) for r in old])
+    kinds = np.concatenate([r.kinds for r in old])
+    fm = np.concatenate([r.fm for r in old])
+    edges = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
+    vertices = shapely.STRtree(shapely.points(a))
+    rings = []
+    for r in snapped.rings:
+        v = r.vertices
+        _, e = edges.query_nearest(shapely.points((v + np.roll(v, -1, axis=0)) / 2), all_matches=False)
+        k = kinds[e]
+        if fm_mode == FM_EXPLICIT:
+            _, n = vertices.query_nearest(shapely.points(v), all_matches=False)
+            f = fm[n]
+        else:
+            f = np.ones(len(v), np.int32) if uniform else fm_from_kinds(k)
+        rings.append(Ring(v, k, f))
+    return snapped.with_rings(rings)
+
+
+def _encode(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode: int) -> bytes:
+    rings = crisp.rings
     unit = crisp.unit.encode()
     parts = [MAGIC, bytes([VERSION, len(unit)]), unit, np.float64(q).tobytes(), bytes([fm_mode])]
     parts.append(encode_varints([len(membership_functions)]))
