@@ -10,9 +10,10 @@ import pytest
 import shapely
 
 from _floor import TME, floor_map, floor_poses
+from fuzzybrep import BRepMap, Region, Ring
 from fuzzybrep.cli import main
 from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
-                              grey_levels, membership_raster, mu_from_grey, write_ros)
+                              crisp_features, grey_levels, membership_raster, mu_from_grey, write_ros)
 from fuzzybrep.rosmap import RosMap, read_ros_map
 
 SVG = "{http://www.w3.org/2000/svg}"
@@ -182,6 +183,24 @@ def test_geojson_levels_and_method_from_the_command_line(floor_file, tmp_path):
     assert [(f["properties"]["role"], f["properties"]["alpha"]) for f in feats] == [
         ("crisp", 1.0), ("inner", 0.1), ("outer", 0.1), ("inner", 0.5), ("outer", 0.5)]
     assert feats[1]["properties"]["method"] == "exact"
+
+
+def test_geojson_rings_follow_the_right_hand_rule(floor_file, tmp_path):
+    """RFC 7946, 3.1.6: exterior rings counter-clockwise, holes clockwise, in every feature and
+    for both α-cut methods (GEOS's buffers and overlays return them the other way round)."""
+    for method in ("sweep", "exact"):
+        for command in (("export", floor_file, "--geojson"), ("alpha-cut", floor_file, "--alpha", 0, "--out")):
+            out = tmp_path / f"{method}.geojson"
+            assert run(*command, out, "--method", method) == 0
+            for f in json.loads(out.read_text())["features"]:
+                g = f["geometry"]
+                for polygon in [g["coordinates"]] if g["type"] == "Polygon" else g["coordinates"]:
+                    ccw = [shapely.Polygon(ring).exterior.is_ccw for ring in polygon]
+                    assert ccw[0] and not any(ccw[1:]), (method, command[0], f["properties"])
+    # a map file may list its rings either way round (Table 4.1 runs clockwise)
+    clockwise = BRepMap((Region(Ring([(0, 0), (0, 4), (4, 4), (4, 0)]), (Ring([(1, 1), (2, 1), (2, 2)]),)),))
+    ring, hole = crisp_features(clockwise)[0]["geometry"]["coordinates"]
+    assert shapely.LinearRing(ring).is_ccw and not shapely.LinearRing(hole).is_ccw
 
 
 # ------------------------------------------------------------------------- SVG

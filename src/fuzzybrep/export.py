@@ -31,7 +31,7 @@ import shapely
 from scipy import ndimage
 
 from .brep import FRONTIER, BRepMap
-from .geojson import alpha_cut_collection
+from .geojson import alpha_cut_collection, geometry_json
 from .mapfile import write_atomic
 from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area, write_ros_map
 
@@ -67,7 +67,7 @@ def coordinate_quantum(unit: str, extent: float) -> float:
 
 
 def feature(geom, **properties) -> dict:
-    return {"type": "Feature", "properties": properties, "geometry": shapely.geometry.mapping(geom)}
+    return {"type": "Feature", "properties": properties, "geometry": geometry_json(geom)}
 
 
 def feature_collection(features: list[dict], **extra) -> dict:

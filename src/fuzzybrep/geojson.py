@@ -121,10 +121,12 @@ def _polygon(coords, where: str) -> shapely.Polygon:
 
 
 def geometry_json(geom) -> dict:
-    """A (Multi)Polygon as a GeoJSON geometry; an empty one as an empty MultiPolygon."""
+    """A (Multi)Polygon as a GeoJSON geometry; an empty one as an empty MultiPolygon. Rings follow
+    the right-hand rule (RFC 7946, 3.1.6: exteriors counter-clockwise, holes clockwise), which
+    GEOS's buffers and overlays, and so the α-cuts, do not."""
     if geom is None or geom.is_empty:
         return {"type": "MultiPolygon", "coordinates": []}
-    return json.loads(shapely.to_geojson(geom))
+    return json.loads(shapely.to_geojson(shapely.orient_polygons(geom, exterior_cw=False)))
 
 
 def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
