@@ -186,6 +186,15 @@ def test_raw_odometry_fails_the_criteria(tmp_path):
 # ------------------------------------------------------------------------------ the pose models
 
 
+def test_raw_odometry_with_other_poses_is_refused(tmp_path, capsys):
+    """--raw-odometry is --poses odometry: given with --poses true it silently won, and the run
+    the user asked for (true poses) was not the one made."""
+    with pytest.raises(SystemExit) as e:
+        cli.main(["demo", "--raw-odometry", "--poses", "true", "--no-figures", "--out", str(tmp_path / "o")])
+    assert e.value.code == 2 and "not allowed with" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_ideal_robot_relocalised_poses_are_true():
     run = simulate_run(builtin_floor(), builtin_route(), Laser(), DiffDrive(), seed=1)
     np.testing.assert_allclose(relocalised_poses(run), run.true_poses, atol=1e-9)

@@ -19,7 +19,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="folder for floorplan.geojson, map.json, report.json and the figures (default %(default)s)")
     p.add_argument("--seed", type=seed, default=0, help="random seed of the run and the UMBmark runs (default %(default)d)")
     add_world_arguments(p, "your own floor plan (docs/demo.md)")
-    g = p.add_argument_group("poses the map uses")
+    # one or the other: with both, --raw-odometry would silently override what --poses asked for
+    g = p.add_argument_group("poses the map uses").add_mutually_exclusive_group()
     g.add_argument("--poses", choices=["relocalised", "odometry", "true"], default="relocalised",
                    help="relocalised (default): the robot knows its pose when it leaves each stop, so every scan "
                         "carries one leg of odometry error; odometry: pure dead reckoning from home; true: no error")
