@@ -102,20 +102,25 @@ def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | No
     derived = all(np.array_equal(r.fm, fm_from_kinds(r.kinds)) for r in rings) and len(membership_functions) == 2
     uniform = all(np.all(r.fm == 1) for r in rings) and len(membership_functions) <= 1
     fm_mode = FM_FROM_KINDS if derived or uniform else FM_EXPLICIT
-    data = _encode(crisp, membership_functions, q, fm_mode)
     try:
-        validate_map(decode(data)[0])
+        validate_map(quantised(crisp, q))
     except GeometryError:
         try:
             validate_map(crisp)
         except GeometryError:
-            return data  # invalid as given: the reader names the ring and vertex
+            return _encode(crisp, membership_functions, q, fm_mode)  # invalid as given: the reader names the ring and vertex
         # Features finer than the quantum (a vertex within q/2 of another edge, a spike back along
         # its own edge 1e-15 away, as GEOS leaves them on real maps) cross or
         # collapse when rounded, and the file could not be read back. Snap rounding keeps the
         # map valid on the grid of the quantum.
-        data = _encode(snap_rounded(crisp, q, fm_mode, uniform), membership_functions, q, fm_mode)
-    return data
+        crisp = snap_rounded(crisp, q, fm_mode, uniform)
+    return _encode(crisp, membership_functions, q, fm_mode)
+
+
+def quantised(crisp: BRepMap, q: float) -> BRepMap:
+    """The map as ``decode`` gives it back: every vertex rounded to the grid of ``q``, exactly
+    (integer steps summed, then times q), without encoding it."""
+    return crisp.with_rings([Ring(np.round(r.vertices / q).astype(np.int64) * q, r.kinds, r.fm) for r in crisp.rings])
 
 
 def snap_rounded(crisp: BRepMap, q: float, fm_mode: int = FM_EXPLICIT, uniform: bool = False) -> BRepMap:
@@ -123,25 +128,31 @@ def snap_rounded(crisp: BRepMap, q: float, fm_mode: int = FM_EXPLICIT, uniform: 
     boundary moved by at most about q/2), each edge with the kind of the crisp edge nearest its
     middle and each vertex with the FM of the nearest crisp vertex (or as the kinds give it)."""
     snapped = BRepMap.from_shapely(shapely.set_precision(crisp.to_shapely(), q), crisp.unit)
-    old = crisp.rings
-    a = np.vstack([r.vertices for r in old])
-    b = np.vstack([np.roll(r.vertices, -1, axis=0) for r in old])
-    kinds = np.concatenate([r.kinds for r in old])
-    fm = np.concatenate([r.fm for r in old])
-    edges = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1)))
-    vertices = shapely.STRtree(shapely.points(a))
+    a, b = _edges(crisp.rings)
+    kinds = np.concatenate([r.kinds for r in crisp.rings])
+    fm = np.concatenate([r.fm for r in crisp.rings])
+    v, w = _edges(snapped.rings)
+    _, e = shapely.STRtree(shapely.linestrings(np.stack((a, b), axis=1))).query_nearest(
+        shapely.points((v + w) / 2), all_matches=False)
+    if fm_mode == FM_EXPLICIT:
+        _, n = shapely.STRtree(shapely.points(a)).query_nearest(shapely.points(v), all_matches=False)
+    at = np.cumsum([len(r) for r in snapped.rings])[:-1]
     rings = []
-    for r in snapped.rings:
-        v = r.vertices
-        _, e = edges.query_nearest(shapely.points((v + np.roll(v, -1, axis=0)) / 2), all_matches=False)
-        k = kinds[e]
-        if fm_mode == FM_EXPLICIT:
-            _, n = vertices.query_nearest(shapely.points(v), all_matches=False)
-            f = fm[n]
-        else:
-            f = np.ones(len(v), np.int32) if uniform else fm_from_kinds(k)
-        rings.append(Ring(v, k, f))
+    fms = np.split(fm[n], at) if fm_mode == FM_EXPLICIT else [None] * len(snapped.rings)
+    for r, k, f in zip(snapped.rings, np.split(kinds[e], at), fms):
+        if f is None:
+            f = np.ones(len(r), np.int32) if uniform else fm_from_kinds(k)
+        rings.append(Ring(r.vertices, k, f))
     return snapped.with_rings(rings)
+
+
+def _edges(rings) -> tuple[np.ndarray, np.ndarray]:
+    """Every edge of the rings: (its first vertices, its second vertices), ring after ring."""
+    v = np.vstack([r.vertices for r in rings])
+    end = np.cumsum([len(r) for r in rings])
+    after = np.arange(1, len(v) + 1)
+    after[end - 1] = end - np.array([len(r) for r in rings])
+    return v, v[after]
 
 
 def _encode(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode: int) -> bytes:
