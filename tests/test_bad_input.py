@@ -451,3 +451,22 @@ def test_tables_csv_checks_every_file_before_writing_any(tmp_path, capsys):
     (out / "edges_principal.csv").mkdir(parents=True)
     fails(capsys, ["tables", m, "--csv", out], "edges_principal.csv: cannot write: it is a folder")
     assert [p.name for p in out.iterdir()] == ["edges_principal.csv"]
+
+
+def test_no_command_writes_over_its_own_input(tmp_path, capsys, monkeypatch):
+    # before: `build a.log --out a.log` replaced the log by the map, `export m.json --svg m.json`
+    # the map by a picture, and `export --geojson x --svg x` kept only the second output
+    log, m = tmp_path / "a.log", tmp_path / "m.json"
+    room_log(log)
+    square_map(m)
+    monkeypatch.chdir(tmp_path)
+    before = {p.name: p.read_bytes() for p in (log, m)}
+    fails(capsys, ["build", log, "--out", log, "--quiet"], "a.log: cannot write: it is the input", "give another name")
+    fails(capsys, ["build", log, "--out", "x.json", "--plot", "./a.log", "--quiet"], "cannot write: it is the input")
+    fails(capsys, ["fuzzify", m, "--tme", "0.1", "--out", m], "m.json: cannot write: it is the input")
+    fails(capsys, ["export", m, "--svg", m], "m.json: cannot write: it is the input")
+    fails(capsys, ["alpha-cut", m, "--alpha", "0", "--out", tmp_path / "sub" / ".." / "m.json"], "it is the input")
+    fails(capsys, ["view", m, "--html", m], "it is the input")
+    fails(capsys, ["export", m, "--geojson", tmp_path / "x", "--svg", "x"], "x: cannot write: it is given for two outputs")
+    assert {p.name: p.read_bytes() for p in (log, m)} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]

@@ -191,12 +191,31 @@ def check_writable(path: str | os.PathLike) -> None:
         raise MapFileError(path, f"cannot write: folder {folder} is not writable")
 
 
-def check_outputs(*paths: str | os.PathLike | None) -> None:
+def check_outputs(*paths: str | os.PathLike | None, inputs: tuple = ()) -> None:
     """``check_writable`` for every output a command was given (None: not asked for), before it
-    writes any: a command whose last output cannot be written must not leave the first ones."""
-    for p in paths:
-        if p is not None:
-            check_writable(p)
+    writes any: a command whose last output cannot be written must not leave the first ones.
+
+    An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
+    keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
+    one output by another."""
+    given = [Path(p) for p in paths if p is not None]
+    for k, p in enumerate(given):
+        check_writable(p)
+        same = next((q for q in inputs if q is not None and _same_file(p, q)), None)
+        if same is not None:
+            raise MapFileError(p, f"cannot write: it is the input {same} as well, which writing would replace; "
+                                  f"give another name")
+        if any(_same_file(p, q) for q in given[:k]):
+            raise MapFileError(p, "cannot write: it is given for two outputs, and the second would replace the first")
+
+
+def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Whether two paths name one file (also through links, or one spelt relative)."""
+    a, b = Path(a), Path(b)
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
+    except (OSError, RuntimeError):  # a loop of links, a path too long: not provably the same
+        return False
 
 
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:

@@ -7,7 +7,7 @@ import json
 import sys
 
 from ..geojson import alpha_cut_collection
-from ..mapfile import write_atomic
+from ..mapfile import check_outputs, write_atomic
 from ._maps import add_map_argument, load_map
 from ._types import alpha
 
@@ -25,6 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_outputs(args.out, inputs=(args.map,))
     fuzzy = load_map(args)
     cuts = [fuzzy.alpha_cut(a, args.method) for a in args.alpha]
     data = json.dumps(alpha_cut_collection(cuts, fuzzy.crisp), separators=(",", ":"))

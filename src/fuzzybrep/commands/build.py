@@ -63,14 +63,14 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..build import build_map
-    from ..mapfile import check_writable
+    from ..mapfile import check_outputs
     from ._maps import fuzzify_from_args
     from ..plot import check_figure_path, save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)
-    check_writable(args.out)  # before the work, not after it
+    check_outputs(args.out, args.plot, inputs=(args.log,))  # before the work, not after it
     if args.plot:
         check_figure_path(args.plot)
     t0 = time.perf_counter()

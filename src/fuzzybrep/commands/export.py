@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     name = args.name or Path(args.map).stem
     ros = [Path(args.ros) / f"{name}.{ext}" for ext in ("yaml", "pgm")] if args.ros else []
-    check_outputs(args.geojson, args.svg, args.compact, *ros)
+    check_outputs(args.geojson, args.svg, args.compact, *ros, inputs=(args.map,))
     t0 = time.perf_counter()
     fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)

@@ -18,6 +18,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..mapfile import check_outputs
+
+    check_outputs(args.out, inputs=(args.crisp,))
     crisp = read_crisp(args.crisp, args.unit)
     fuzzy = fuzzify_from_args(crisp, args, tme_required=True)
     size = fuzzy.save(args.out, metadata={"source": str(args.crisp)})

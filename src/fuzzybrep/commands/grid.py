@@ -58,8 +58,10 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
 
 def run(args) -> int:
     from ..grid import occupancy_grid
+    from ..mapfile import check_outputs
     from ..rosmap import write_grid
 
+    check_outputs(*(Path(args.out) / f"{args.name}.{ext}" for ext in ("yaml", "pgm")), inputs=(args.log,))
     t0 = time.perf_counter()
     scans, report = read_log(args)
     t1 = time.perf_counter()

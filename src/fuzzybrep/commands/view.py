@@ -26,9 +26,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..mapfile import read_map
+    from ..mapfile import check_outputs, read_map
     from ..viewer import read_path, write_html
 
+    check_outputs(args.html, inputs=(args.map, args.path))
     t0 = time.perf_counter()
     m = read_map(args.map)
     fuzzy = load_map(args, m)
