@@ -112,6 +112,22 @@ def test_vertices_within_2cm_at_zero_noise(method, pose):
 
 
 @pytest.mark.parametrize("method", ["hough", "iepf"])
+@pytest.mark.parametrize("n", [720, 1440])
+@pytest.mark.parametrize("pose", [(3.5478, 1.5396, -2.8841), (1.5, 1.0, 0.9), (4.2, 3.1, 2.4)])
+def test_corners_of_finer_scans_are_where_the_walls_meet(method, n, pose):
+    # at 0.5° and 0.25° a few beams of one wall next to a corner are within the tolerance of
+    # the other wall's line and join it; the corner is still where the two lines meet, and no
+    # line runs on past it out of the room
+    free = room(6, 4)
+    scan = scan_of(free, pose, n=n, fov=2 * np.pi * (n - 1) / n)
+    poly = polygon_of(scan, method)
+    corners = np.array([(0, 0), (6, 0), (6, 4), (0, 4)])
+    assert corner_errors(poly, corners).max() <= 0.02
+    d = shapely.distance(free.boundary, shapely.points(poly.ring.vertices))
+    assert d.max() <= 0.02
+
+
+@pytest.mark.parametrize("method", ["hough", "iepf"])
 @pytest.mark.parametrize("seed", range(6))
 def test_vertices_within_3_sigma_with_noise(method, seed):
     sigma = 0.01

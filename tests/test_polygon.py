@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 from _synthetic import room, scan_of
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -27,6 +27,8 @@ ranges_st = arrays(np.float64, st.integers(45, 200), elements=st.one_of(
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(ranges=ranges_st, full=st.booleans(), heading=st.floats(-np.pi, np.pi), x=st.floats(-50, 50))
+# a corner window reaching past a short line's middle put its two corners out of order
+@example(ranges=np.r_[np.full(9, 0.375), 0.25, np.full(35, 0.375)], full=False, heading=0.0, x=0.0)
 def test_scan_polygon_is_always_simple_and_star_shaped(ranges, full, heading, x):
     n = len(ranges) * (2 if full else 1)
     ranges = np.resize(ranges, n)
