@@ -220,6 +220,16 @@ def test_refuses_a_point_in_the_support_band_and_says_which_alpha_frees_it(pilla
     assert plan(pillar_room, (1, 0.1), (1, 1), alpha=0.3).length == pytest.approx(0.9)
 
 
+def test_a_point_on_the_crisp_wall_is_said_to_be_free_at_alpha_one(pillar_room):
+    # μ = 1 on the crisp boundary: at α = 1 the inner cut is the crisp map, and a point on its
+    # edge is free there (test_a_point_on_an_edge_is_free), so the error names α = 1
+    with pytest.raises(PointNotFreeError, match="band") as e:
+        plan(pillar_room, (1, 0), (1, 1), alpha=0.5)
+    assert e.value.alpha_needed == 1.0
+    assert "it is free from about α = 1 on" in str(e.value)
+    assert plan(pillar_room, (1, 0), (1, 1), alpha=1.0).length == pytest.approx(1.0)
+
+
 def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     with pytest.raises(PointNotFreeError, match="closer than the radius 0.3") as e:
         plan(pillar_room, (1, 0.4), (1, 1), radius=0.3)
