@@ -294,6 +294,21 @@ def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
         planner(fz, need - 0.04, 0.3).piece(p)
 
 
+def test_the_alpha_that_frees_a_point_beside_a_sharp_tip_is_where_the_tip_last_lies_in_its_disc():
+    # the spike's tip moves along the spike's axis, from 2.2 at α = 0 to 2 at α = 1; the disc
+    # the safe region keeps clear about p first holds the tip's path at y* = p_y − √(R² − dx²):
+    # p is free once the tip is below y*, from α = 1 − (y* − 2)/0.2 on. Sampling the disc's edge
+    # alone came within 1.5e-3 of it
+    room = ROOM.difference(shapely.Polygon([(4.9, -1), (5.1, -1), (5, 2)]))
+    fz = fuzzify(BRepMap.from_shapely(room), tme=0.2)
+    R = 0.3 * RADIUS_FACTOR
+    p = (5.005, 2.1 + R)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(fz, p, (1, 3), radius=0.3)
+    y = p[1] - math.sqrt(R * R - 0.005**2)
+    assert e.value.alpha_needed == pytest.approx(1 - (y - 2) / 0.2, abs=1e-4)
+
+
 TILTED = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
 
 
