@@ -86,6 +86,24 @@ def test_tables_mark_deleted_vertices_null():
     assert e["EDGE_IN"][0] == 1
 
 
+def test_edge_table_4_3_of_inner_and_outer_deletions():
+    # the 0.7-long chamfer between vertices 3 and 4 inverts in the inner offset (TME 2): its edge
+    # and both its vertices are NULL, while edge 4, which starts at the deleted vertex 4, still
+    # has a stretch on the inner boundary
+    v = np.array([(0, 0), (10, 0), (10, 9.5), (9.5, 10), (0, 10)], float)
+    e = fuzzify(BRepMap((Region(Ring(v)),)), tme=2.0).edge_table(0)
+    assert e["EDGE_IN"].tolist() == [1, 2, 0, 4, 5]
+    assert e["VIN_START"].tolist() == [1, 2, 0, 0, 5] and e["VIN_END"].tolist() == [2, 0, 0, 5, 1]
+    # a notch 0.5 wide and 1 deep in the top wall is filled by the outer sweep (2 along the
+    # bisectors): its bottom corners (vertices 5, 6) and its three edges are NULL in the outer table
+    v = np.array([(0, 0), (10, 0), (10, 10), (5.5, 10), (5.5, 9), (5, 9), (5, 10), (0, 10)], float)
+    e = fuzzify(BRepMap((Region(Ring(v)),)), tme=2.0).edge_table(0)
+    assert e["EDGE_OUT"].tolist() == [1, 2, 3, 0, 0, 0, 7, 8]
+    assert e["VOUT_START"].tolist() == [1, 2, 3, 4, 0, 0, 7, 8]
+    assert e["VOUT_END"].tolist() == [2, 3, 4, 0, 0, 7, 8, 1]  # edge k ends where edge k + 1 starts
+    assert e["EDGE_IN"].tolist() == list(range(1, 9))
+
+
 def test_tables_of_a_long_folding_ring_take_linear_time():
     """Which offset vertices and edges survive is found through an index: a 24000-vertex wall
     whose bands fold everywhere (vertices 9 cm apart, ±3 cm of noise, TME 0.2) takes about a
@@ -195,6 +213,41 @@ def test_asymmetric_function_offsets_each_side_by_its_support():
     assert np.hypot(*(grow - v).T) == pytest.approx(np.full(4, 2.0))
     shrink, grow = fz.offset_vertices(0.5)
     assert np.hypot(*(grow - v).T) == pytest.approx(np.full(4, 1.0))
+
+
+def test_asymmetric_function_on_a_hole_offsets_each_side_by_its_support():
+    # IN of a hole is into the obstacle, OUT into the free space: the inner cut grows the hole
+    # by d_out, the outer cut shrinks it by d_in. Along the bisector of a square's corner a move
+    # of d moves the edges by d/√2
+    fz = fuzzify(square(10, holes=[[(4, 4), (6, 4), (6, 6), (4, 6)]]), Triangular(tme_in=0.5, tme_out=1.5))
+    r = math.sqrt(2)
+    for alpha in (0.0, 0.5):
+        d_in, d_out = (1 - alpha) * 0.5, (1 - alpha) * 1.5
+        cut = fz.alpha_cut(alpha)
+        assert cut.inner.area == pytest.approx((10 - r * d_in) ** 2 - (2 + r * d_out) ** 2)
+        assert cut.outer.area == pytest.approx((10 + r * d_out) ** 2 - (2 - r * d_in) ** 2)
+
+
+def test_sweep_membership_of_an_asymmetric_function_takes_each_side_from_its_support():
+    # μ is the α whose α-cut edge passes through the point: inside, the wall's inner edge at α is
+    # (1 − α)·0.5/√2 in, outside its outer edge (1 − α)·1.5/√2 out
+    fz = fuzzify(square(10), Triangular(tme_in=0.5, tme_out=1.5))
+    mu = fz.membership(np.array([[5, 0.25], [5, -0.25]]), "sweep")
+    assert mu == pytest.approx([1 - 0.25 * math.sqrt(2) / 0.5, 1 - 0.25 * math.sqrt(2) / 1.5])
+
+
+def test_sweep_membership_agrees_with_the_alpha_cuts_where_bands_fold():
+    # the chamfer's inner band folds over at TME 2: μ ≥ α exactly where the α-cut's band is
+    v = np.array([(0, 0), (10, 0), (10, 9.5), (9.5, 10), (0, 10)], float)
+    fz = fuzzify(BRepMap((Region(Ring(v)),)), tme=2.0)
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(7, 11, (3000, 2))
+    mu = fz.membership(pts)
+    for a in (0.1, 0.3, 0.5):
+        band = fz.alpha_cut(a).band
+        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
+        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
+        assert np.array_equal((mu >= a)[clear], inb[clear])
 
 
 def test_bad_alpha_and_method():

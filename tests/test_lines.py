@@ -7,7 +7,18 @@ import pytest
 import shapely
 from _synthetic import l_room, room, scan_of
 
-from fuzzybrep.lines import LineConfig, anchored_runs, extract, hough_accumulator, intersect, tolerance
+from fuzzybrep.lines import (
+    LineConfig,
+    Lines,
+    absorb_strays,
+    anchored_runs,
+    demote_misfits,
+    extract,
+    hough_accumulator,
+    iepf_lines,
+    intersect,
+    tolerance,
+)
 from fuzzybrep.polygon import NONE, RETURN, PolygonConfig, scan_polygon
 from fuzzybrep.scans.filters import classify
 
@@ -101,6 +112,22 @@ def test_vertices_within_2cm_at_zero_noise(method, pose):
 
 
 @pytest.mark.parametrize("method", ["hough", "iepf"])
+@pytest.mark.parametrize("n", [720, 1440])
+@pytest.mark.parametrize("pose", [(3.5478, 1.5396, -2.8841), (1.5, 1.0, 0.9), (4.2, 3.1, 2.4)])
+def test_corners_of_finer_scans_are_where_the_walls_meet(method, n, pose):
+    # at 0.5° and 0.25° a few beams of one wall next to a corner are within the tolerance of
+    # the other wall's line and join it; the corner is still where the two lines meet, and no
+    # line runs on past it out of the room
+    free = room(6, 4)
+    scan = scan_of(free, pose, n=n, fov=2 * np.pi * (n - 1) / n)
+    poly = polygon_of(scan, method)
+    corners = np.array([(0, 0), (6, 0), (6, 4), (0, 4)])
+    assert corner_errors(poly, corners).max() <= 0.02
+    d = shapely.distance(free.boundary, shapely.points(poly.ring.vertices))
+    assert d.max() <= 0.02
+
+
+@pytest.mark.parametrize("method", ["hough", "iepf"])
 @pytest.mark.parametrize("seed", range(6))
 def test_vertices_within_3_sigma_with_noise(method, seed):
     sigma = 0.01
@@ -172,3 +199,93 @@ def test_no_return_beams_are_not_used_for_lines():
     poly = scan_polygon(scan, free, status)
     # nothing beyond 8 m is claimed, and the far wall (29 m away) is not in the polygon
     assert shapely.Polygon(poly.ring.vertices).bounds[2] <= 1.0 + 8.0 + 1e-6
+
+
+def test_accumulator_is_rho_of_table_3_3():
+    # ρ(θ) = x cos θ + y sin θ: at θ = 0 the point's x, at 90° its y
+    theta, rho = hough_accumulator(np.array([[3.0, 4.0]]), 45.0)
+    assert np.allclose(np.degrees(theta), [0, 45, 90, 135])
+    assert np.allclose(rho[0], [3.0, 7 / np.sqrt(2), 4.0, 1 / np.sqrt(2)])
+    # points on the line x cos 30° + y sin 30° = 2 share one ρ in the 30° column, and only there
+    th0 = np.radians(30)
+    t = np.linspace(-1, 1, 5)
+    pts = np.column_stack((2 * np.cos(th0) - t * np.sin(th0), 2 * np.sin(th0) + t * np.cos(th0)))
+    theta, rho = hough_accumulator(pts, 1.0)
+    spread = np.ptp(rho, axis=0)
+    assert np.argmin(spread) == 30 and np.allclose(rho[:, 30], 2.0)
+
+
+def on_line(theta, rho, t):
+    """Points at arc positions t along x cos θ + y sin θ = ρ."""
+    return np.column_stack((rho * np.cos(theta) - t * np.sin(theta), rho * np.sin(theta) + t * np.cos(theta)))
+
+
+@pytest.mark.parametrize("method", ["hough", "iepf"])
+def test_a_run_of_exactly_min_points_collinear_points_is_a_line(method):
+    pts = on_line(np.radians(30), 2.0, np.array([-0.3, -0.1, 0.1, 0.3]))
+    lines = extract(pts, np.hypot(*pts.T), np.array([[0, 4]]), LineConfig(method=method, min_points=4))
+    assert len(lines) == 1 and lines.start[0] == 0 and lines.stop[0] == 4
+    assert np.isclose(lines.theta[0], np.radians(30)) and np.isclose(lines.rho[0], 2.0)
+
+
+def test_a_long_wall_found_at_a_relaxed_tolerance_is_extended_at_that_tolerance():
+    # a zigzag ±2 cm about y = 2: at 1 cm no 4 consecutive points share a θ (the middle one of
+    # three is 4 cm off the line through its neighbours' parity), at 4 cm the whole wall does and
+    # every point is within 2 cm of the refitted line; so the wall is one line, not pieces of
+    # the window's length
+    n = 60
+    pts = np.column_stack((np.linspace(-1.5, 1.5, n), 2.0 + 0.02 * (-1.0) ** np.arange(n)))
+    cfg = LineConfig(tol_min=0.01, tol_rel=0.0, relax=(1.0, 4.0), window=16)
+    lines = extract(pts, np.hypot(*pts.T), np.array([[0, n]]), cfg)
+    assert len(lines) == 1 and lines.stop[0] == n
+    assert np.isclose(lines.theta[0], np.pi / 2, atol=0.01) and np.isclose(lines.rho[0], 2.0, atol=0.005)
+
+
+def test_iepf_splits_at_a_bend_just_beyond_the_tolerance():
+    # a roof: the apex is 1.5 τ above the chord of the ends, so IEPF splits there; every line it
+    # returns has all its points within τ of its chord
+    tol = 0.03
+    x = np.linspace(-1, 1, 21)
+    pts = np.column_stack((x, 2.0 + 1.5 * tol * (1 - np.abs(x))))
+    cfg = LineConfig(method="iepf", tol_min=tol, tol_rel=0.0, relax=(1.0,))
+    lines = iepf_lines(pts, np.hypot(*pts.T), np.array([[0, 21]]), cfg)
+    assert list(zip(lines.start, lines.stop)) == [(0, 11), (11, 21)]
+    for s, e in zip(lines.start, lines.stop):
+        p0, p1, q = pts[s], pts[e - 1], pts[s:e]
+        u = (p1 - p0) / np.hypot(*(p1 - p0))
+        assert np.all(np.abs((q[:, 0] - p0[0]) * u[1] - (q[:, 1] - p0[1]) * u[0]) <= tol + 1e-12)
+
+
+def test_iepf_splits_three_points_bent_beyond_the_tolerance():
+    # three points whose middle one is 2 τ off the chord: IEPF must split, leaving no line even
+    # when three points may make one
+    tol = 0.03
+    pts = np.array([[-0.5, 2.0], [0.0, 2.0 + 2 * tol], [0.5, 2.0]])
+    cfg = LineConfig(method="iepf", tol_min=tol, tol_rel=0.0, relax=(1.0,), min_points=3)
+    lines = iepf_lines(pts, np.hypot(*pts.T), np.array([[0, 3]]), cfg)
+    assert not lines.is_line.any()
+    # three points on the chord are a line
+    pts[1, 1] = 2.0
+    assert iepf_lines(pts, np.hypot(*pts.T), np.array([[0, 3]]), cfg).is_line.all()
+
+
+def test_strays_join_both_ends_of_a_line_in_one_pass():
+    # points 0..5 on y = 1; the line claims 1..4, points 0 and 5 are strays on either end
+    pts = np.column_stack((np.arange(6.0), np.ones(6)))
+    lines = Lines(np.array([0, 1, 5]), np.array([1, 5, 6]), np.array([np.nan, np.pi / 2, np.nan]),
+                  np.array([np.nan, 1.0, np.nan]))
+    out = absorb_strays(pts, lines, np.full(6, 0.01), np.full(6, 6), passes=1)
+    assert list(zip(out.start, out.stop)) == [(0, 6)]
+
+
+def test_a_line_that_misses_one_of_its_points_falls_apart():
+    # five points on y = 1 but the middle one 0.5 off: the refitted line misses some point by
+    # more than 0.1, so the "line" is five single points; the same points straight stay a line
+    pts = np.column_stack((np.arange(5.0), np.ones(5)))
+    pts[2, 1] = 1.5
+    bent = Lines(np.array([0]), np.array([5]), np.array([np.pi / 2]), np.array([1.1]))
+    out = demote_misfits(pts, bent, np.full(5, 0.1), 4)
+    assert list(out.start) == [0, 1, 2, 3, 4] and not out.is_line.any()
+    pts[2, 1] = 1.0
+    straight = Lines(np.array([0]), np.array([5]), np.array([np.pi / 2]), np.array([1.0]))
+    assert demote_misfits(pts, straight, np.full(5, 0.1), 4) is straight

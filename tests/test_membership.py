@@ -121,6 +121,34 @@ def test_the_criteria_check_runs_on_the_function_itself():
         Bumpy(10)
 
 
+def test_the_criteria_hold_at_exactly_tme_and_on_the_inner_side():
+    # criterion 1 is μ = 0 for x ≥ r + TME, TME included: an A1 whose support 1/p is a hair
+    # (1e-7 relative) wider than its TME is still positive at r + TME and is refused
+    with pytest.raises(MembershipFunctionError, match="criterion 1 of thesis 4.1.1 fails"):
+        A1(1 / (0.2 * (1 + 1e-7)), tme=0.2)
+
+    class BumpyInside(Triangular):
+        def mu(self, x):
+            x = np.asarray(x, float)
+            return np.where(np.abs(x + 5) < 1, 0.9, super().mu(x))
+
+    with pytest.raises(MembershipFunctionError, match="increases away from r"):
+        BumpyInside(10)
+
+    class SlightRise(Triangular):
+        def mu(self, x):  # rises by ~3e-4 where it enters [4, 6]: the 0.6-cut is no interval
+            x = np.asarray(x, float)
+            return super().mu(x) + np.where(np.abs(x - 5) < 1, 8e-4, 0.0)
+
+    with pytest.raises(MembershipFunctionError, match="increases away from r"):
+        SlightRise(10)
+
+
+def test_table_4_2_parameters_of_an_asymmetric_function():
+    # a = r − TME_in and b = r + TME_out (Table 4.2's "a = −TME; b = +TME", one TME per side)
+    assert Triangular(tme_in=100, tme_out=300).parameters() == "a = -100; b = 300; TME = 300"
+
+
 def test_alpha_out_of_range():
     with pytest.raises(MembershipFunctionError, match=r"\[0, 1\]"):
         Triangular(1).d_in(1.5)

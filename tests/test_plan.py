@@ -220,6 +220,16 @@ def test_refuses_a_point_in_the_support_band_and_says_which_alpha_frees_it(pilla
     assert plan(pillar_room, (1, 0.1), (1, 1), alpha=0.3).length == pytest.approx(0.9)
 
 
+def test_a_point_on_the_crisp_wall_is_said_to_be_free_at_alpha_one(pillar_room):
+    # μ = 1 on the crisp boundary: at α = 1 the inner cut is the crisp map, and a point on its
+    # edge is free there (test_a_point_on_an_edge_is_free), so the error names α = 1
+    with pytest.raises(PointNotFreeError, match="band") as e:
+        plan(pillar_room, (1, 0), (1, 1), alpha=0.5)
+    assert e.value.alpha_needed == 1.0
+    assert "it is free from about α = 1 on" in str(e.value)
+    assert plan(pillar_room, (1, 0), (1, 1), alpha=1.0).length == pytest.approx(1.0)
+
+
 def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     with pytest.raises(PointNotFreeError, match="closer than the radius 0.3") as e:
         plan(pillar_room, (1, 0.4), (1, 1), radius=0.3)
@@ -282,6 +292,21 @@ def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
     # (``_shrink``), 0.03 in α here, so the planner frees it from between 0.47 and 0.5
     with pytest.raises(PointNotFreeError):
         planner(fz, need - 0.04, 0.3).piece(p)
+
+
+def test_the_alpha_that_frees_a_point_beside_a_sharp_tip_is_where_the_tip_last_lies_in_its_disc():
+    # the spike's tip moves along the spike's axis, from 2.2 at α = 0 to 2 at α = 1; the disc
+    # the safe region keeps clear about p first holds the tip's path at y* = p_y − √(R² − dx²):
+    # p is free once the tip is below y*, from α = 1 − (y* − 2)/0.2 on. Sampling the disc's edge
+    # alone came within 1.5e-3 of it
+    room = ROOM.difference(shapely.Polygon([(4.9, -1), (5.1, -1), (5, 2)]))
+    fz = fuzzify(BRepMap.from_shapely(room), tme=0.2)
+    R = 0.3 * RADIUS_FACTOR
+    p = (5.005, 2.1 + R)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(fz, p, (1, 3), radius=0.3)
+    y = p[1] - math.sqrt(R * R - 0.005**2)
+    assert e.value.alpha_needed == pytest.approx(1 - (y - 2) / 0.2, abs=1e-4)
 
 
 TILTED = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))

@@ -8,8 +8,8 @@ import shapely
 
 from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES, dumbbell
 from fuzzybrep.errors import GeometryError
-from fuzzybrep.sweep import (band_folds, band_parameter, free_space, in_hull, normal_vertices, parametric_lines,
-                             proper_polygon, swept_hulls)
+from fuzzybrep.sweep import (band_folds, band_parameter, clean, free_space, in_hull, nests, normal_vertices, orientation,
+                             parametric_lines, proper_polygon, swept_hulls)
 
 
 def table_columns(lines):
@@ -169,3 +169,73 @@ def test_in_hull():
     quad = np.array([[[0, 0], [4, 0], [3, 1], [1, 1]]], float)
     pts = np.array([[2, 0.5], [2, 0], [0, 0.5], [4, 1], [2, 1]])
     assert in_hull(pts, np.repeat(quad, len(pts), 0)).tolist() == [True, True, False, False, True]
+
+
+def one(*arrays):
+    return [np.array([a], float) for a in arrays]
+
+
+def test_at_a_spike_the_bisector_points_back_along_the_spike():
+    # a wall 2 long sticking out of the top of a square and back: at its tip (2, 6) the two
+    # edge normals cancel and IN is back down the spike, towards the room
+    v = np.array([(0, 0), (4, 0), (4, 4), (2, 4), (2, 6), (2, 4), (0, 4)], float)
+    np.testing.assert_allclose(normal_vertices(v)[4], [0, -1], atol=1e-15)
+
+
+def test_a_folded_band_with_a_simple_offset_ring_is_still_made_proper():
+    # the inner offset (3 along the bisectors) of this small quadrilateral is a simple,
+    # positively wound ring, but its bands fold over: taken as it is, 0.2 of it would lie
+    # outside the crisp polygon; the proper polygon (crisp minus what the edges swept) lies within
+    v = np.array([(3, 4), (4, 0), (7, 2), (4, 3)], float)
+    own = orientation(v)
+    lines = parametric_lines(v, 1.0, 1.0)
+    p = lines.inner(3.0)
+    assert shapely.LinearRing(p).is_simple and band_folds(v, p, own).any()
+    pp = proper_polygon(v, p, own, +1)
+    assert not pp.simple
+    assert pp.geometry.is_empty or pp.geometry.within(shapely.Polygon(v))
+
+
+def test_band_parameter_takes_the_first_pass_where_the_band_folds():
+    # the segment from (3u, u) to (4 − 3u, 2u) passes through (1.5, 0.5) at u = 4/9 (λ = 1/8)
+    # and again at u = 1/2 (λ = 0): 9u² − 8.5u + 2 = 0
+    u = band_parameter(*one((1.5, 0.5), (0, 0), (4, 0), (3, 1), (-3, 2)))
+    assert u[0] == pytest.approx(4 / 9)
+
+
+def test_band_parameter_where_the_segment_collapses_to_a_point():
+    # from (3u, u) to (4 − 3u, u): at u = 2/3 the segment is the point (2, 2/3); a point on its
+    # line but off the band is not swept
+    band = ((0, 0), (4, 0), (3, 1), (-3, 1))
+    assert band_parameter(*one((2, 2 / 3), *band))[0] == pytest.approx(2 / 3)
+    assert np.isnan(band_parameter(*one((5, 2 / 3), *band))[0])
+
+
+def test_in_hull_of_a_degenerate_quad_is_its_segment():
+    quad = np.array([[[0, 0], [1, 0], [2, 0], [3, 0]]], float)
+    pts = np.array([[5, 0], [-1, 0], [1.5, 0], [1.5, 1e-3]])
+    assert in_hull(pts, np.repeat(quad, len(pts), 0)).tolist() == [False, False, True, False]
+
+
+def test_clean_repairs_nested_shells_and_drops_slivers():
+    nested = shapely.MultiPolygon([shapely.box(0, 0, 10, 10), shapely.box(2, 2, 3, 3)])
+    assert not nested.is_valid
+    g = clean(nested)
+    assert g.is_valid and g.area == pytest.approx(100)
+    sliver = shapely.Polygon(shapely.box(0, 0, 10, 10).exterior.coords, [[(2, 2), (5, 2), (8, 2 + 1e-12)]])
+    g = clean(sliver)
+    assert g.geom_type == "Polygon" and len(g.interiors) == 0
+
+
+def test_nests_needs_holes_strictly_inside():
+    shell = shapely.box(0, 0, 10, 10)
+    assert nests(shell, [shapely.box(1, 4, 2, 5), shapely.box(3, 4, 4, 5)])
+    assert not nests(shell, [shapely.box(0, 4, 1, 5)])  # shares an edge with the shell
+    assert not nests(shell, [shapely.box(1, 4, 3, 5), shapely.box(2, 4, 4, 5)])  # holes overlap
+
+
+def test_free_space_keeps_valid_nested_rings_bit_for_bit():
+    shell = shapely.Polygon([(0, 0), (10, 0), (10, 10), (0, 10)])
+    hole = shapely.Polygon([(4, 4), (4, 5), (5, 5), (5, 4)])
+    g = free_space([shell], [[hole]])
+    assert np.array_equal(shapely.get_coordinates(g), shapely.get_coordinates(shapely.Polygon(shell.exterior, [hole.exterior])))

@@ -94,9 +94,23 @@ def test_bad_stop_positions(cw, ccw, match):
         umbmark(cw, ccw)
 
 
-def test_bad_side():
-    with pytest.raises(UMBmarkError, match="side must be a positive number"):
-        umbmark(*TABLE_I2, side=0)
+@pytest.mark.parametrize("name", ["side", "wheelbase", "wheel", "rev_count"])
+@pytest.mark.parametrize("value", [0.0, -1.0, math.inf])
+def test_bad_parameters(name, value):
+    with pytest.raises(UMBmarkError, match=f"{name} must be a positive number"):
+        umbmark(*TABLE_I2, **{name: value})
+    with pytest.raises(UMBmarkError, match="eb_turn_deg must be a positive angle"):
+        umbmark(*TABLE_I2, eb_turn_deg=-90.0)
+
+
+def test_alpha_at_or_beyond_the_turn_has_no_E_b():
+    # Eq. 6: x_cw + x_ccw = −4L·α; α = 100° > 90° leaves Eq. 5 (90 / (90 − α)) no positive solution
+    x = -4 * 4000 * math.radians(100) / 2
+    with pytest.raises(UMBmarkError, match="is not below 90°"):
+        umbmark([(x, 0.0)], [(x, 0.0)], eb_turn_deg=BORENSTEIN_EB_TURN)
+    # and α just below the turn still gives a finite, large E_b
+    x = -4 * 4000 * math.radians(89) / 2
+    assert umbmark([(x, 0.0)], [(x, 0.0)], eb_turn_deg=BORENSTEIN_EB_TURN).E_b == pytest.approx(90.0)
 
 
 def test_runs_csv_round_trip(tmp_path):
@@ -105,6 +119,11 @@ def test_runs_csv_round_trip(tmp_path):
     cw, ccw = read_runs(path)
     np.testing.assert_array_equal(cw, TABLE_I1[0])
     np.testing.assert_array_equal(ccw, TABLE_I1[1])
+    # stop positions measured to a tenth of a millimetre keep it
+    write_runs(path, TABLE_I1[0] + 0.3, TABLE_I1[1] - 0.7)
+    cw, ccw = read_runs(path)
+    np.testing.assert_allclose(cw, TABLE_I1[0] + 0.3, atol=1e-9)
+    np.testing.assert_allclose(ccw, TABLE_I1[1] - 0.7, atol=1e-9)
 
 
 @pytest.mark.parametrize("text, match", [

@@ -582,8 +582,8 @@ class Planner:
         method = self.method or "sweep"
         R = self.radius * RADIUS_FACTOR
         if R == 0:
-            mu = float(fuzzy.membership(p[None], method)[0])
-            return mu if mu < 1 else None
+            # μ = 1 on the crisp boundary, which is free at α = 1 (the crisp map, edge included)
+            return float(fuzzy.membership(p[None], method)[0])
         a = np.linspace(0, 2 * np.pi, _EDGE_SAMPLES, endpoint=False)
         step = 2 * np.pi / _EDGE_SAMPLES
         edge = fuzzy.membership(p + R * np.column_stack((np.cos(a), np.sin(a))), method)

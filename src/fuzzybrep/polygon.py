@@ -260,12 +260,14 @@ class _Beams:
                 bx = np.arctan2(y, x)
                 bx = bx + 2 * np.pi * np.round((beta[j] - bx) / (2 * np.pi))
                 near = np.maximum(4 * tol[j], 2 * np.hypot(*(pts[j] - pts[i]).T))
-                # within one beam of the junction: noise may hand the corner beam to either line.
-                # Every line has at least min_points >= 3 points, so the corner still comes after
-                # the first line's start and before the second line's end: the order holds.
+                # anywhere between the middle beams of the two lines: noise, and the merge of
+                # stray points within the loose tolerance, may hand a few beams of one wall to
+                # the other's line (at 0.25° several). A line's corner at its start stays before
+                # its middle beam and the one at its end after it: the order holds.
                 good = (
                     np.isfinite(x)
-                    & (bx >= beta[i - 1]) & (bx <= beta[j + 1])
+                    & (bx >= beta[(start[k] + stop[k] - 1) // 2])
+                    & (bx <= beta[(start[k + gap] + stop[k + gap] - 1) // 2])
                     & (np.hypot(x - pts[j, 0], y - pts[j, 1]) <= near)
                     & (np.hypot(x - pts[i, 0], y - pts[i, 1]) <= near)
                 )
