@@ -236,18 +236,23 @@ def test_sweep_membership_of_an_asymmetric_function_takes_each_side_from_its_sup
     assert mu == pytest.approx([1 - 0.25 * math.sqrt(2) / 0.5, 1 - 0.25 * math.sqrt(2) / 1.5])
 
 
+def assert_mu_is_the_bands(fz, pts, alphas):
+    """μ ≥ α exactly where the α-cut's band is, for points not on the band's boundary."""
+    mu = fz.membership(pts)
+    for a in alphas:
+        band = fz.alpha_cut(a).band
+        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
+        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
+        assert np.array_equal((mu >= a)[clear], inb[clear])
+
+
 def test_sweep_membership_agrees_with_the_alpha_cuts_where_bands_fold():
     # the chamfer's inner band folds over at TME 2: μ ≥ α exactly where the α-cut's band is
     v = np.array([(0, 0), (10, 0), (10, 9.5), (9.5, 10), (0, 10)], float)
     fz = fuzzify(BRepMap((Region(Ring(v)),)), tme=2.0)
     rng = np.random.default_rng(5)
     pts = rng.uniform(7, 11, (3000, 2))
-    mu = fz.membership(pts)
-    for a in (0.1, 0.3, 0.5):
-        band = fz.alpha_cut(a).band
-        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
-        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
-        assert np.array_equal((mu >= a)[clear], inb[clear])
+    assert_mu_is_the_bands(fz, pts, (0.1, 0.3, 0.5))
 
 
 def test_bad_alpha_and_method():
@@ -330,12 +335,7 @@ def test_membership_with_mixed_functions_uses_each_vertex_function():
     fz = fuzzify(BRepMap((Region(ring),)), {1: Triangular(1.0), 2: A4(0.5)})
     rng = np.random.default_rng(3)
     pts = rng.uniform(-3, 13, (2000, 2))
-    mu = fz.membership(pts)
-    for a in (0.2, 0.5, 0.8):
-        band = fz.alpha_cut(a).band
-        clear = shapely.distance(shapely.boundary(band), shapely.points(pts)) > 1e-6
-        inb = shapely.intersects_xy(band, pts[:, 0], pts[:, 1])
-        assert np.array_equal((mu >= a)[clear], inb[clear])
+    assert_mu_is_the_bands(fz, pts, (0.2, 0.5, 0.8))
 
 
 def test_exact_sides_of_an_asymmetric_function_are_those_of_each_boundarys_own_ring():
