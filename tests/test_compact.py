@@ -160,3 +160,14 @@ def test_compact_maps_of_the_real_logs_read_back(built_map, tmp_path):
         assert mfs == fz.table.to_dicts()
         assert abs(crisp.area - fz.crisp.area) < 1e-4 * fz.crisp.area
         fuzzify(crisp, fz.table).alpha_cut(0.0)
+
+
+def test_export_says_how_many_vertices_the_file_holds(tmp_path, capsys):
+    # before: it printed the map's count (Intel: 5678) where the snap-rounded file held 5499
+    from fuzzybrep import cli
+
+    m, out = tmp_path / "m.json", tmp_path / "m.fbrc"
+    fuzzify(notched_map(), Triangular(0.19913)).save(m)
+    assert cli.main(["export", str(m), "--compact", str(out)]) == 0
+    crisp, _ = read_compact(out)
+    assert f"({crisp.n_vertices} vertices, {notched_map().n_vertices} before snap rounding)" in capsys.readouterr().out

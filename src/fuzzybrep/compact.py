@@ -95,26 +95,43 @@ def fm_from_kinds(kinds: np.ndarray) -> np.ndarray:
 
 def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> bytes:
     """The compact encoding of a map (see the module doc)."""
-    q = quantum if quantum is not None else QUANTUM.get(crisp.unit, 1e-3)
-    if not q > 0:
-        raise ValueError(f"quantum must be positive, got {q}")
-    rings = crisp.rings
-    derived = all(np.array_equal(r.fm, fm_from_kinds(r.kinds)) for r in rings) and len(membership_functions) == 2
-    uniform = all(np.all(r.fm == 1) for r in rings) and len(membership_functions) <= 1
-    fm_mode = FM_FROM_KINDS if derived or uniform else FM_EXPLICIT
+    q = _quantum(crisp, quantum)
+    return _encode(stored_map(crisp, membership_functions, q), membership_functions, q, _fm_mode(crisp, membership_functions))
+
+
+def stored_map(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> BRepMap:
+    """The map as the compact encoding stores it, before rounding: ``crisp`` itself, or where
+    rounding to the quantum would make it invalid, ``crisp`` snap-rounded (``snap_rounded``)."""
+    q = _quantum(crisp, quantum)
     try:
         validate_map(quantised(crisp, q))
     except GeometryError:
         try:
             validate_map(crisp)
         except GeometryError:
-            return _encode(crisp, membership_functions, q, fm_mode)  # invalid as given: the reader names the ring and vertex
+            return crisp  # invalid as given: the reader names the ring and vertex
         # Features finer than the quantum (a vertex within q/2 of another edge, a spike back along
         # its own edge 1e-15 away, as GEOS leaves them on real maps) cross or
         # collapse when rounded, and the file could not be read back. Snap rounding keeps the
         # map valid on the grid of the quantum.
-        crisp = snap_rounded(crisp, q, fm_mode, uniform)
-    return _encode(crisp, membership_functions, q, fm_mode)
+        uniform = all(np.all(r.fm == 1) for r in crisp.rings) and len(membership_functions) <= 1
+        return snap_rounded(crisp, q, _fm_mode(crisp, membership_functions), uniform)
+    return crisp
+
+
+def _quantum(crisp: BRepMap, quantum: float | None) -> float:
+    q = quantum if quantum is not None else QUANTUM.get(crisp.unit, 1e-3)
+    if not q > 0:
+        raise ValueError(f"quantum must be positive, got {q}")
+    return q
+
+
+def _fm_mode(crisp: BRepMap, membership_functions: list[dict]) -> int:
+    """FM from the kinds where it follows from them (or is 1 throughout), else explicit."""
+    rings = crisp.rings
+    derived = all(np.array_equal(r.fm, fm_from_kinds(r.kinds)) for r in rings) and len(membership_functions) == 2
+    uniform = all(np.all(r.fm == 1) for r in rings) and len(membership_functions) <= 1
+    return FM_FROM_KINDS if derived or uniform else FM_EXPLICIT
 
 
 def quantised(crisp: BRepMap, q: float) -> BRepMap:

@@ -71,10 +71,13 @@ def run(args: argparse.Namespace) -> int:
         n = write_atomic(args.svg, text.encode("utf-8"))
         print(f"{args.svg}: {n} bytes")
     if args.compact:
-        from ..compact import write_compact
+        from ..compact import stored_map, write_compact
 
-        n = write_compact(args.compact, fuzzy.crisp, fuzzy.table.to_dicts())
-        print(f"{args.compact}: {n} bytes ({fuzzy.crisp.n_vertices} vertices)")
+        mfs = fuzzy.table.to_dicts()
+        stored = stored_map(fuzzy.crisp, mfs)
+        n = write_compact(args.compact, stored, mfs)
+        snapped = f", {fuzzy.crisp.n_vertices} before snap rounding" if stored is not fuzzy.crisp else ""
+        print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
     if args.ros:
         # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
         scale = metres_per_unit(fuzzy.unit)
