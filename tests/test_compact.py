@@ -9,7 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fuzzybrep import BRepMap, MapFileError, Region, Ring
-from fuzzybrep.compact import decode, decode_varints, encode, encode_varints, quantised, read_compact, write_compact
+from fuzzybrep.compact import (FM_EXPLICIT, FM_FROM_KINDS, decode, decode_varints, encode, encode_varints, fm_from_kinds,
+                               quantised, read_compact, snap_rounded, write_compact)
 from fuzzybrep.fuzzy import compact_bytes, fuzzify, validate_map
 from fuzzybrep.membership import Triangular
 
@@ -149,6 +150,58 @@ def test_features_finer_than_the_quantum_still_decode_to_a_valid_map(tmp_path):
     assert abs(a.area - b.area) < 0.01 and shapely.hausdorff_distance(a.boundary, b.boundary) <= 0.001
     # every edge keeps the kind of the edge it came from: the frontier (1) edges are still there
     assert {int(k) for r in crisp.rings for k in r.kinds} == {0, 1}
+
+
+def test_fm_survives_the_round_trip_whatever_the_number_of_functions():
+    m = sample_map()
+    follows = m.with_rings([Ring(r.vertices, r.kinds, fm_from_kinds(r.kinds)) for r in m.rings])
+    ones = m.with_rings([Ring(r.vertices, r.kinds, np.ones(len(r))) for r in m.rings])
+    assert any((r.kinds == 1).any() for r in m.rings)  # so the two FM columns differ
+    mf = {"type": "triangular", "tme": 0.2}
+    # FM that follows the kinds, but with three functions (index 2 need not be the frontier's); all 1 with two
+    for crisp, mfs in ((follows, [mf] * 3), (ones, [mf] * 2), (follows, [mf] * 2), (ones, [mf])):
+        back, _ = decode(encode(crisp, mfs))
+        assert all(np.array_equal(a.fm, b.fm) for a, b in zip(crisp.rings, back.rings))
+
+
+def test_bytes_after_the_last_ring_are_refused(tmp_path):
+    p = tmp_path / "long.fbrc"
+    p.write_bytes(encode(sample_map(), []) + b"\x00\x00")
+    with pytest.raises(MapFileError, match="long.fbrc: not a valid compact map: 2 unexpected bytes after the last ring"):
+        read_compact(p)
+
+
+def edge_midpoints(ring):
+    v = ring.vertices
+    return (v + np.roll(v, -1, axis=0)) / 2
+
+
+def test_snap_rounding_keeps_each_edges_kind_and_each_vertexs_fm():
+    m = notched_map()
+    m = m.with_rings([Ring(r.vertices, r.kinds, np.arange(len(r)) + 1 + 10 * k) for k, r in enumerate(m.rings)])
+    s = snap_rounded(m, 0.001, FM_EXPLICIT)
+    validate_map(s)
+    crisp_edges = [shapely.LineString([a, b]) for r in m.rings for a, b in zip(r.vertices, np.roll(r.vertices, -1, 0))]
+    crisp_kinds = np.concatenate([r.kinds for r in m.rings])
+    crisp_v = np.vstack([r.vertices for r in m.rings])
+    crisp_fm = np.concatenate([r.fm for r in m.rings])
+    for r in s.rings:
+        # every snapped edge lies on (within half a quantum of) the crisp edge it came from, one only
+        for mid, kind in zip(edge_midpoints(r), r.kinds):
+            d = shapely.distance(crisp_edges, shapely.Point(mid))
+            near = np.flatnonzero(d <= 0.0005 + 1e-12)
+            assert len(near) == 1 and kind == crisp_kinds[near[0]]
+        # every snapped vertex within half a quantum of a crisp vertex keeps that vertex's FM
+        for p, f in zip(r.vertices, r.fm):
+            d = np.hypot(*(crisp_v - p).T)
+            if d.min() <= 0.0005 * np.sqrt(2) + 1e-12:
+                assert f == crisp_fm[np.argmin(d)]
+    # FM from the kinds: 1 everywhere for a map of one function, else as the kinds give it
+    ones = snap_rounded(m, 0.001, FM_FROM_KINDS, uniform=True)
+    assert all((r.fm == 1).all() for r in ones.rings)
+    two = snap_rounded(m, 0.001, FM_FROM_KINDS)
+    assert all(np.array_equal(r.fm, fm_from_kinds(r.kinds)) for r in two.rings)
+    assert any((r.fm == 2).any() for r in two.rings)
 
 
 def test_compact_maps_of_the_real_logs_read_back(built_map, tmp_path):

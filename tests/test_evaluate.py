@@ -110,3 +110,63 @@ def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     still = [scan_of(empty.difference(person), p, n=361, fov=2 * np.pi - 0.02, t=float(k)) for k, p in enumerate(poses)]
     e = E.evaluate_log(still, 2, BuildConfig())
     assert e.exact.violations < 0.005 and e.violations_unseen == 0.0 and e.violations_came_and_went == 0.0
+
+
+def test_only_returns_closer_than_max_range_are_scored():
+    # a return at 1 m, one at exactly max_range (5 m), one just short of it, and a beam with no return
+    s = Scan(np.array([1.0, 5.0, 4.99, 80.0]), np.radians([-10.0, 0.0, 10.0, 20.0]), np.zeros(3), 0.0, 80.0)
+    assert E.scored(s, 5.0).tolist() == [True, False, True, False]
+    np.testing.assert_allclose(E.endpoints([s], 5.0), [[np.cos(np.radians(-10)), np.sin(np.radians(-10))],
+                                                       [4.99 * np.cos(np.radians(10)), 4.99 * np.sin(np.radians(10))]])
+
+
+def test_score_classes_by_hand_boundaries_included():
+    safe, outer = shapely.box(1, 1, 3, 3), shapely.box(0, 0, 4, 4)
+    pts = np.array([[2.0, 2.0],    # inside the safe region: a violation
+                    [0.5, 0.5],    # in the band: explained
+                    [1.0, 2.0],    # on the safe region's edge: not inside it, so in the band
+                    [4.0, 2.0],    # on the outer polygon's edge: not outside it, so in the band
+                    [5.0, 5.0]])   # past the outer polygon: beyond
+    s = E.score(pts, safe, outer)
+    assert (s.endpoints, s.violations, s.beyond) == (5, 0.2, 0.2) and np.isclose(s.explained, 0.6)
+    assert s.violated.tolist() == [True, False, False, False, False]
+
+
+def test_holdout_split_and_the_names_of_every_kth():
+    scans = list(range(7))
+    assert E.holdout_split(scans, 3) == ([0, 1, 3, 4, 6], [2, 5])
+    for k in (1, 0):
+        try:
+            E.holdout_split(scans, k)
+        except ValueError as e:
+            assert "at least 2" in str(e)
+        else:
+            raise AssertionError(f"holdout {k} accepted")
+    names = {2: "second", 3: "third", 4: "4th", 11: "11th", 12: "12th", 13: "13th", 21: "21st", 22: "22nd",
+             23: "23rd", 101: "101st", 111: "111th", 112: "112th"}
+    assert {k: E.ordinal(k) for k in names} == names
+
+
+def test_small_objects_are_narrow_nearer_than_both_neighbours_and_not_the_whole_scan():
+    b = np.radians(np.arange(-90.0, 91.0))  # 181 beams, 1° apart
+    r = np.full(len(b), 3.0)
+    r[100:103] = 1.0  # a pole 1 m away: 3 beams, about 3.5 cm across, walls behind on both sides
+    r[20:80] = 1.0  # a cupboard 1 m away across 60 beams: over a metre wide, not small
+    s = Scan(r, b, np.zeros(3), 0.0, 80.0)
+    small = E.small_objects([s], 5.0)
+    assert np.flatnonzero(small).tolist() == [100, 101, 102]
+    # a scan that sees one small surface and nothing else has no neighbours to be nearer than
+    tiny = Scan(np.full(3, 1.0), np.radians([-1.0, 0.0, 1.0]), np.zeros(3), 0.0, 80.0)
+    assert not E.small_objects([tiny], 5.0).any()
+
+
+def test_free_space_iou_counts_cells_by_their_centres():
+    from fuzzybrep.grid import OccupancyGrid
+
+    lo = np.zeros((4, 4))
+    lo[:, :2] = -5.0  # the grid: the left two columns of 1 m cells are free
+    g = OccupancyGrid(lo, (0.0, 0.0), 1.0)
+    # the map: x < 1.2, so the left column's centres (x = 0.5) only: 4 shared cells out of 8
+    assert E.free_space_iou(shapely.box(0, 0, 1.2, 4), g) == 0.5
+    assert E.free_space_iou(shapely.box(0, 0, 2, 4), g) == 1.0
+    assert np.isnan(E.free_space_iou(shapely.Polygon(), OccupancyGrid(np.zeros((2, 2)), (0.0, 0.0), 1.0)))

@@ -138,3 +138,135 @@ def test_scans_that_see_nothing_are_refused_clearly():
         scans = [Scan(np.full(181, r), bearings, np.zeros(3), float(t), 81.83) for t in range(3)]
         with pytest.raises(GeometryError, match="no free space"):
             build_map(scans)
+
+
+# ------------------------------------------------------------------------- the rules of steps 2-5, by hand
+# Rays along +x on the row y = 0.025; with a ray from x = 0 the grid's origin is (-0.1, ...) and cell
+# k spans x in [0.05 (k - 2), 0.05 (k - 1)): the obstacle O is the cell [2.0, 2.05), hit at x = 2.02.
+
+
+def row_rays(*specs):
+    """Rays along +x: each (time, hit_at or None, length, ox, y); a None hit claims ``length`` free."""
+    t, hit_at, length, ox, y = (np.array(z, dtype=object) for z in zip(*specs))
+    hit = np.array([h is not None for h in hit_at])
+    hit_range = np.array([h - o if h is not None else 8.0 for h, o in zip(hit_at, ox)], float)
+    n = len(specs)
+    return evidence.Rays(ox.astype(float), y.astype(float), np.ones(n), np.zeros(n), length.astype(float),
+                         t.astype(float), hit, hit_range)
+
+
+def hit_at(x, t, y=0.025):
+    return (t, x, x, 0.0, y)
+
+
+def passing(t, end=4.0, ox=0.0, y=0.025):
+    return (t, end, end - ox, ox, y)
+
+
+def occupied_at(rays, cfg, x, y=0.025) -> bool:
+    ev = evidence.gather(rays, cfg)
+    return bool(ev.occupied[ev.cell_index(np.array([x]), np.array([y]))][0])
+
+
+def test_an_obstacle_is_cleared_by_clear_crossings_later_rays_and_more_than_its_hits():
+    cfg = evidence.EvidenceConfig()
+    assert cfg.clear_crossings == 3
+    # one hit, then 2 or 3 later rays through it
+    assert occupied_at(row_rays(hit_at(2.02, 0), *(passing(t) for t in (1, 2))), cfg, 2.02)
+    assert not occupied_at(row_rays(hit_at(2.02, 0), *(passing(t) for t in (1, 2, 3))), cfg, 2.02)
+    # four hits need more than four later crossings, even though 3 reach clear_crossings
+    four = [hit_at(2.02, 0)] * 4
+    assert occupied_at(row_rays(*four, *(passing(t) for t in (1, 2, 3, 4))), cfg, 2.02)
+    assert not occupied_at(row_rays(*four, *(passing(t) for t in (1, 2, 3, 4, 5))), cfg, 2.02)
+
+
+def test_only_crossings_after_the_last_hit_nearby_clear():
+    cfg = evidence.EvidenceConfig()
+    # rays of the same time as the hit (the same scan) are not "afterwards"
+    assert occupied_at(row_rays(hit_at(2.02, 5), *(passing(5) for _ in range(4))), cfg, 2.02)
+    # a newer hit in the 3 x 3 neighbourhood (the cell above, y = 0.075) keeps O: the rays grazed it
+    rays = row_rays(hit_at(2.02, 0), hit_at(2.02, 9, y=0.075), *(passing(t) for t in (1, 2, 3, 4)))
+    assert occupied_at(rays, cfg, 2.02)
+    assert not occupied_at(row_rays(hit_at(2.02, 0), hit_at(2.02, 9, y=0.175), *(passing(t) for t in (1, 2, 3, 4))),
+                           cfg, 2.02)  # two cells away is not next to it
+
+
+def test_a_ray_crosses_a_cell_once_however_many_samples_it_has_there():
+    # sampled every 1 cm, one later ray has 5 samples in O: still one crossing, short of clear_crossings
+    fine = evidence.EvidenceConfig(step=0.01)
+    assert occupied_at(row_rays(hit_at(2.02, 0), passing(1)), fine, 2.02)
+    assert not occupied_at(row_rays(hit_at(2.02, 0), *(passing(t) for t in (1, 2, 3))), fine, 2.02)
+    # three rays one after another that each cross only O (the robot has driven onto the spot) are
+    # three crossings, not one
+    cfg = evidence.EvidenceConfig()
+    short = [passing(t, end=2.2, ox=2.01) for t in (1, 2, 3)]  # 0.19 long: only their first sample crosses
+    assert not occupied_at(row_rays(hit_at(2.02, 0), *short), cfg, 2.02)
+
+
+def test_a_cell_within_cross_margin_of_a_rays_end_is_not_crossed_by_it():
+    cfg = evidence.EvidenceConfig()
+    # later rays returning at x = 2.13: O's near face is 0.13 < cross_margin (0.15) before their end
+    assert occupied_at(row_rays(hit_at(2.02, 0), *(passing(t, end=2.13) for t in (1, 2, 3, 4))), cfg, 2.02)
+    assert not occupied_at(row_rays(hit_at(2.02, 0), *(passing(t, end=2.25) for t in (1, 2, 3, 4))), cfg, 2.02)
+
+
+def test_evidence_of_standing_is_solid_hits_or_block_ratio_of_its_crossings():
+    cfg = evidence.EvidenceConfig()
+    assert (cfg.solid_hits, cfg.block_ratio) == (3, 0.05)
+    before = [passing(t) for t in range(40)]  # crossings before the hits: they clear nothing
+    # 1 hit < 0.05 x 40 crossings: noise; 2 hits >= 0.05 x 40: standing
+    assert not occupied_at(row_rays(*before, hit_at(2.02, 50)), cfg, 2.02)
+    assert occupied_at(row_rays(*before, *[hit_at(2.02, 50)] * 2), cfg, 2.02)
+    # 3 hits stand however many rays crossed first
+    many = [passing(t) for t in range(100)]
+    assert not occupied_at(row_rays(*many, *[hit_at(2.02, 150)] * 2), cfg, 2.02)
+    assert occupied_at(row_rays(*many, *[hit_at(2.02, 150)] * 3), cfg, 2.02)
+
+
+def test_a_return_is_clipped_short_of_the_occupied_cell_it_would_enter():
+    cfg = evidence.EvidenceConfig(clear=False)
+    rays = row_rays(hit_at(2.02, 0), passing(1, ox=0.03))
+    free = evidence.clip(rays, evidence.gather(rays, cfg), cfg)
+    assert free[0] == pytest.approx(2.02)  # its own return: no conflict
+    end = 0.03 + free[1]
+    assert 2.0 - 2 * cfg.step <= end <= 2.0  # stops at O's near face [2.0, 2.05), never inside it
+
+
+def test_the_bridge_stops_only_beams_without_a_return():
+    # a returned beam through the gap in a pane is judged on the cells it crossed, also when a
+    # no-return beam elsewhere makes the bridge be built
+    cfg = evidence.EvidenceConfig(clear=False, no_return_bridge=1.0)
+    pane = [(t, 2.0, 2.0, 0.0, y) for t, y in enumerate((-0.6, -0.3, 0.3, 0.6))]
+    rays = row_rays(*pane, (10, 3.0, 3.0, 0.0, 0.0), (11, None, 3.5, 0.0, 0.01))
+    free = evidence.clip(rays, evidence.gather(rays, cfg), cfg)
+    assert free[4] == 3.0
+    assert 1.9 <= free[5] <= 2.05
+
+
+def test_samples_short_of_counts_k_with_k_step_below_x():
+    # ceil(x / step) is one too many where x / step rounds up past an integer: 3 · 0.05 / 0.05 = 3.0000000000000004
+    for step in (0.05, 0.1, 0.03):
+        x = np.r_[np.arange(200) * step, np.arange(200) * step + step / 2, -1.0]
+        count = np.full(len(x), 150)
+        want = [min(sum(k * step < xi for k in range(150)), 150) for xi in x]
+        np.testing.assert_array_equal(evidence._samples_short_of(x, step, count), want)
+
+
+def test_carve_cuts_out_only_solidly_hit_occupied_cells_deep_inside_the_free_space():
+    cell = 0.05
+    ev = evidence.Evidence(np.zeros(2), cell, (40, 40), np.zeros(1600, np.int32), np.zeros(1600, bool))
+    free = shapely.box(0.0, 0.0, 2.0, 2.0)
+    centre = lambda ix, iy: ((ix + 0.5) * cell, (iy + 0.5) * cell)  # noqa: E731
+    for (ix, iy), h in {(20, 20): 3, (10, 10): 2, (30, 1): 5, (5, 30): 9}.items():
+        ev.hits[iy * 40 + ix] = h
+        ev.occupied[iy * 40 + ix] = True
+    cfg = evidence.EvidenceConfig()
+    assert (cfg.carve_hits, cfg.carve_depth) == (3, 0.10)
+    cut = evidence.carve(free, ev, cfg)
+    # (20, 20) hit carve_hits times, deep inside: cut; (10, 10) hit twice: kept; (30, 1) 0.075 from
+    # the edge y = 0 (less than carve_depth): kept; (5, 30) deep inside: cut
+    assert cut.area == pytest.approx(2 * cell**2)
+    for c in ((20, 20), (5, 30)):
+        assert cut.contains(shapely.Point(*centre(*c)))
+    for c in ((10, 10), (30, 1)):
+        assert not cut.intersects(shapely.Point(*centre(*c)))

@@ -162,6 +162,24 @@ def test_traverse_counts_add_up_every_segments_cells(segs, workers):
     np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.parametrize("xy", [True, False])
+def test_cell_runs_stay_in_the_segments_cells_when_the_direction_is_off_by_rounding(xy):
+    # as occupancy_grid gives them: direction (cos a, sin a), end = start + length·direction. From the
+    # corner (55, 32) at 135° for 7√2 the end lands on the corner (48, 39), but (cos a, sin a) is not
+    # exactly parallel to the segment, so where the runs end by the direction can stray past the end
+    # cell's column: each cell must still be the segment's, once
+    ou, ov, a, length = 55.0, 32.0, 2.3561944901923453, 9.899494936611665  # 135° (to 2e-16), 7√2
+    du, dv = np.cos([a]), np.sin([a])
+    eu, ev = ou + length * du, ov + length * dv
+    u, v, du_, dv_, e = ((ou, ov, du, dv, (eu, ev)) if xy else (ov, ou, dv, du, (ev, eu)))
+    line, lo, hi = cell_runs(np.array([u]), np.array([v]), du_, dv_, floor([u]), floor([v]), floor(e[0]),
+                             floor(e[1]), xy=xy)
+    cells = [(int(i), j) for i, p, q in zip(line, lo, hi) for j in range(int(p), int(q) + 1)]
+    cells = cells if xy else [(j, i) for i, j in cells]
+    assert len(set(cells)) == len(cells) == 15
+    assert_chain(cells, ou, ov, eu[0], ev[0])
+
+
 def test_segment_through_cell_corners_gives_a_four_connected_path_without_repeats():
     # from a cell corner at 45° the segment meets only corners: each is crossed as two steps,
     # the horizontal boundary first, whether the segment is taken by columns or by rows
@@ -264,6 +282,8 @@ def test_bad_parameters_and_scans_that_mark_nothing_are_refused():
     scans = box_scans([(0.0, 0.0, 0.0)])
     with pytest.raises(ValueError, match="resolution"):
         occupancy_grid(scans, 0.0)
+    with pytest.raises(ValueError, match="max_usable"):
+        occupancy_grid(scans, RES, max_usable=0.0)
     with pytest.raises(ValueError, match="clamp"):
         occupancy_grid(scans, RES, clamp=(0.5, 2.0))
     with pytest.raises(ValueError, match="l_occ"):
@@ -282,6 +302,33 @@ def test_logit_and_thresholds():
     g = OccupancyGrid(np.array([[logit(0.1), 0.0, logit(0.9)]]), (0.0, 0.0), 1.0)
     np.testing.assert_array_equal(g.trinary(), [[FREE, UNKNOWN, OCCUPIED]])
     np.testing.assert_allclose(g.probability_at([0.5, 1.5, 2.5], [0.5] * 3), [0.1, 0.5, 0.9], rtol=1e-6)
+
+
+def test_points_outside_the_grid_are_unknown_even_beside_a_known_edge_cell():
+    # every edge cell known: a point just past an edge must not borrow the nearest edge cell's value
+    g = OccupancyGrid(np.full((2, 3), logit(0.9)), (0.0, 0.0), 1.0)
+    xs = np.array([3.0, 3.5, -0.5, 1.5, 1.5, 2.5])
+    ys = np.array([0.5, 1.5, 0.5, 2.0, -0.01, 2.5])
+    np.testing.assert_array_equal(g.probability_at(xs, ys), 0.5)
+    assert (g.state_at(xs, ys) == UNKNOWN).all()
+    assert (g.state_at([2.99, 0.0], [1.99, 0.0]) == OCCUPIED).all()  # the last cells are still inside
+
+
+def test_the_grid_has_exactly_one_spare_unmarked_cell_on_each_side():
+    g = occupancy_grid(box_scans([(0.1, 0.05, 0.3), (-1.0, 0.4, 2.0)]), RES, clamp=NO_CLAMP)
+    marked = g.logodds != 0
+    for edge in (marked[0], marked[-1], marked[:, 0], marked[:, -1]):
+        assert not edge.any()
+    for inner in (marked[1], marked[-2], marked[:, 1], marked[:, -2]):
+        assert inner.any()
+
+
+def test_a_return_exactly_at_max_usable_is_a_hit():
+    # "beyond max_usable" is r > max_usable: a return at 8 m with max_usable = 8 m still hits
+    scans = [Scan(np.array([8.0]), np.array([0.0]), np.array([0.0125, 0.0125, 0.0]), 0.0, 80.0)]
+    g = occupancy_grid(scans, RES, max_usable=8.0, clamp=NO_CLAMP)
+    assert g.logodds[g.cell_index(8.0125, 0.0125)[:2]] == np.float32(L_OCC)
+    assert g.occupied().sum() == 1
 
 
 # ------------------------------------------------------------------------- command

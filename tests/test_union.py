@@ -137,6 +137,70 @@ def test_validate_names_the_ring_of_a_second_piece():
         BRepMap((principal, wrong_way)).validate()
 
 
+def test_validate_refuses_a_clockwise_outer_boundary_and_names_a_repeated_vertex():
+    square = [(0, 0), (4, 0), (4, 4), (0, 4)]
+    with pytest.raises(GeometryError, match="principal: outer boundary must run counter-clockwise"):
+        BRepMap((brep.Region(ring(square[::-1])),)).validate()
+    # vertices 2 and 3 are the same point: vertex 2 is named, as repeating vertex 3
+    with pytest.raises(GeometryError, match="repeats vertex 3") as e:
+        brep.validate_ring(np.array([(0, 0), (1, 0), (1, 0), (0, 1)]))
+    assert e.value.vertex == 2
+    with pytest.raises(GeometryError, match="repeats vertex 1") as e:  # the last vertex closes onto the first
+        brep.validate_ring(np.array([(0, 0), (1, 0), (0, 1), (0, 0)]))
+    assert e.value.vertex == 4
+
+
+def test_locate_vertex_numbers_vertices_within_their_own_ring():
+    rings = [np.array([(0, 0), (10, 0), (10, 10), (0, 10)], float), np.array([(2, 2), (2, 4), (4, 4), (4, 2)], float)]
+    assert brep.locate_vertex(rings, ["principal", "hole 1"], "Self-intersection[4.1 3.9]") == ("hole 1", 3)
+    assert brep.locate_vertex(rings, ["principal", "hole 1"], "Self-intersection[2 2]") == ("hole 1", 1)
+    assert brep.locate_vertex(rings, ["principal", "hole 1"], "Self-intersection[0 9]") == ("principal", 4)
+    assert brep.locate_vertex(rings, ["principal", "hole 1"], "Too few points") == (None, None)
+
+
+def test_from_shapely_keeps_only_pieces_and_holes_with_area():
+    with pytest.raises(GeometryError, match="no free space with area"):
+        BRepMap.from_shapely(shapely.Polygon([(0, 0), (1, 1), (2, 2)]))
+    # a hole collapsed onto a line bounds nothing
+    g = shapely.Polygon([(0, 0), (4, 0), (4, 4), (0, 4)], [[(1, 1), (2, 1), (3, 1)]])
+    m = BRepMap.from_shapely(g)
+    assert m.n_holes == 0 and np.isclose(m.area, 16)
+    m.validate()
+
+
+def test_union_repairs_invalid_polygons_and_simplifies_within_the_tolerance():
+    bow_tie = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # two triangles of area 1 meeting at (1, 1)
+    g = brep.union([bow_tie, shapely.box(10, 10, 11, 11)])
+    assert g.is_valid and np.isclose(g.area, 3.0)
+    bumpy = shapely.Polygon([(0, 0), (2, 0), (2, 1), (2.01, 2), (2, 3), (0, 3)])  # 1 cm off the line x = 2
+    assert len(shapely.get_coordinates(brep.union([bumpy]))) == 7
+    simple = brep.union([bumpy], simplify=0.05)
+    assert simple.equals(shapely.box(0, 0, 2, 3))
+
+
+def test_clean_drops_pieces_and_holes_of_at_most_the_given_areas():
+    big = shapely.Polygon([(0, 0), (10, 0), (10, 10), (0, 10)],
+                          [shapely.box(1, 1, 2, 2).exterior.coords, shapely.box(4, 4, 6, 6).exterior.coords])
+    g = shapely.MultiPolygon([big, shapely.box(20, 0, 21, 1), shapely.box(30, 0, 32, 2)])
+    out = brep.clean(g, min_piece_area=1.0, min_hole_area=1.0)
+    # the 1 m² piece and the 1 m² hole go; the 4 m² piece and hole stay
+    assert np.isclose(out.area, 100 - 4 + 4)
+    parts = shapely.get_parts(out)
+    assert len(parts) == 2 and sum(len(p.interiors) for p in parts) == 1
+    assert shapely.get_parts(out)[0].interiors[0].envelope.equals(shapely.box(4, 4, 6, 6))
+
+
+def test_clean_simplifies_and_drops_holes_too_small_for_the_tolerance():
+    # a vertex 1 cm off a wall is simplified away at 5 cm
+    bumpy = shapely.Polygon([(0, 0), (2, 0), (2, 1), (2.01, 2), (2, 3), (0, 3)])
+    assert brep.clean(bumpy, simplify=0.05).equals(shapely.box(0, 0, 2, 3))
+    # a 7 cm square hole (49 cm²) is under (1 m / 10)² = 100 cm²: nothing at a 1 m tolerance
+    room = shapely.Polygon([(0, 0), (20, 0), (20, 20), (0, 20)], [shapely.box(10, 10, 10.07, 10.07).exterior.coords])
+    out = brep.clean(room, simplify=1.0)
+    assert len(out.interiors) == 0 and np.isclose(out.area, 400)
+    assert len(brep.clean(room, simplify=0.01).interiors) == 1  # (1 mm)² is smaller: kept
+
+
 def test_map_file_round_trips_exactly(tmp_path):
     a = ring([(0, 0), (6, 0), (6, 1), (1, 1), (1, 4), (6, 4), (6, 5), (0, 5)])
     b = ring([(5, 0), (10, 0), (10, 5), (5, 5), (5, 4), (9, 4), (9, 1), (5, 1)])
