@@ -168,8 +168,8 @@ class BRepMap:
     def from_shapely(cls, geom, unit: str = "m", min_area: float = 0.0) -> "BRepMap":
         """Crisp map from a Shapely (Multi)Polygon: principal = largest piece, orientation fixed.
 
-        Pieces smaller than ``min_area`` are dropped (none by default). Raises GeometryError if
-        nothing with area is left or the geometry is invalid.
+        Pieces of area ``min_area`` or less are dropped (by default those of no area). Raises
+        GeometryError if nothing with area is left or the geometry is invalid.
         """
         polys = [g for g in shapely.get_parts(polygonal(geom)) if g.area > min_area]
         if not polys:
