@@ -55,7 +55,7 @@ class EvidenceConfig:
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
-    chunk: int = 500_000  #: samples per batch: bounds the memory each of the two threads takes (no faster when larger)
+    chunk: int = 250_000  #: samples per batch: bounds the memory each of the two threads takes (no faster when larger)
     cache: int = 16_000_000  #: ray samples that could stop their ray kept between the two passes, at most
 
 
