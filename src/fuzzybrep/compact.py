@@ -95,14 +95,17 @@ def fm_from_kinds(kinds: np.ndarray) -> np.ndarray:
 
 def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> bytes:
     """The compact encoding of a map (see the module doc)."""
-    q = _quantum(crisp, quantum)
-    return _encode(stored_map(crisp, membership_functions, q), membership_functions, q, _fm_mode(crisp, membership_functions))
+    q, fm_mode = _quantum(crisp, quantum), _fm_mode(crisp, membership_functions)
+    return _encode(_stored(crisp, membership_functions, q, fm_mode), membership_functions, q, fm_mode)
 
 
 def stored_map(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> BRepMap:
     """The map as the compact encoding stores it, before rounding: ``crisp`` itself, or where
     rounding to the quantum would make it invalid, ``crisp`` snap-rounded (``snap_rounded``)."""
-    q = _quantum(crisp, quantum)
+    return _stored(crisp, membership_functions, _quantum(crisp, quantum), _fm_mode(crisp, membership_functions))
+
+
+def _stored(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode: int) -> BRepMap:
     try:
         validate_map(quantised(crisp, q))
     except GeometryError:
@@ -113,9 +116,9 @@ def stored_map(crisp: BRepMap, membership_functions: list[dict], quantum: float 
         # Features finer than the quantum (a vertex within q/2 of another edge, a spike back along
         # its own edge 1e-15 away, as GEOS leaves them on real maps) cross or
         # collapse when rounded, and the file could not be read back. Snap rounding keeps the
-        # map valid on the grid of the quantum.
-        uniform = all(np.all(r.fm == 1) for r in crisp.rings) and len(membership_functions) <= 1
-        return snap_rounded(crisp, q, _fm_mode(crisp, membership_functions), uniform)
+        # map valid on the grid of the quantum. FM from the kinds with fewer than two functions
+        # is FM 1 throughout (``_fm_mode``), as ``decode`` reads it
+        return snap_rounded(crisp, q, fm_mode, uniform=len(membership_functions) < 2)
     return crisp
 
 
