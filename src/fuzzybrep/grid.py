@@ -357,22 +357,19 @@ def cell_runs(u, v, du, dv, i0, j0, i1, j1, xy: bool) -> tuple[np.ndarray, np.nd
     whi = np.where(flip, -jlo - 1, jhi).astype(np.float64)
     lo[:m] = j0  # the first runs start in the start cells
     w = np.empty(active[0] if len(active) else 0)
-    for k, c in enumerate(size):
+    # in block k the first a = active[k] segments leave their line (none in the last block)
+    for k, (c, a) in enumerate(zip(size, np.r_[active, 0])):
         b = start[k]
         np.multiply(si[:c], k, out=line[b : b + c])
         line[b : b + c] += i0[:c]
-        if k < len(active):  # the first active[k] segments leave this line: the run ends there
-            a = active[k]
-            np.multiply(ws[:a], k, out=w[:a])
-            w[:a] += w1[:a]
-            np.floor(w[:a], out=w[:a])
-            np.fmax(w[:a], wlo[:a], out=w[:a])  # fmax, not maximum: a NaN from a degenerate segment becomes a bound
-            np.fmin(w[:a], whi[:a], out=w[:a])
-            w[:a] *= sg[:a]
-            w[:a] += off[:a]
-            hi[b : b + a] = w[:a]
-            lo[start[k + 1] : start[k + 1] + a] = hi[b : b + a]  # and the next one starts in that cell
-        else:
-            a = 0
+        np.multiply(ws[:a], k, out=w[:a])
+        w[:a] += w1[:a]
+        np.floor(w[:a], out=w[:a])
+        np.fmax(w[:a], wlo[:a], out=w[:a])  # fmax, not maximum: a NaN from a degenerate segment becomes a bound
+        np.fmin(w[:a], whi[:a], out=w[:a])
+        w[:a] *= sg[:a]
+        w[:a] += off[:a]
+        hi[b : b + a] = w[:a]  # where they leave it, the run ends
+        lo[start[k + 1] : start[k + 1] + a] = hi[b : b + a]  # and the next one starts in that cell
         hi[b + a : b + c] = j1[a:c]  # the others end here, in their end cells
     return line, np.minimum(lo, hi), np.maximum(lo, hi)
