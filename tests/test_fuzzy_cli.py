@@ -181,9 +181,11 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     assert f"`fuzzybrep fuzzify {out} --tme 0.1234567 --out NEW.json`" in capsys.readouterr().err
 
 
-def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):
+def test_fuzzify_a_fuzzy_map_file_again(tmp_path, capsys):
     # a built map gives its frontier vertices FM 2; before, refuzzifying it with one function
-    # failed with "principal, vertex 2: FM index 2 has no membership function in the table"
+    # failed with "principal, vertex 2: FM index 2 has no membership function in the table",
+    # and then gave every vertex FM 1, losing the frontier's own index. Now, as `build`: FM 2
+    # with the new function, or the one --frontier-mf names
     from fuzzybrep.brep import BRepMap, Region, Ring
     from fuzzybrep.fuzzy import fuzzify
     from fuzzybrep.membership import Triangular
@@ -194,7 +196,17 @@ def test_fuzzify_a_fuzzy_map_file_again_with_one_function(tmp_path, capsys):
     out = tmp_path / "again.json"
     assert run("fuzzify", built, "--tme", 0.3, "--out", out) == 0, capsys.readouterr().err
     again = FuzzyBRepMap.load(out)
-    assert again.table.indices == [1] and again.crisp.principal.kinds.tolist() == [0, 1, 0, 0]
+    assert again.crisp.principal.kinds.tolist() == [0, 1, 0, 0]
+    assert again.table.indices == [1, 2] and [again.table[k].support_in for k in (1, 2)] == [0.3, 0.3]
+    assert again.crisp.principal.fm.tolist() == [1, 2, 2, 1]  # vertices 2 and 3 end the frontier edge
+    assert run("fuzzify", built, "--tme", 0.3, "--frontier-mf", "triangular:in=0.5,out=0.5", "--out", out) == 0
+    again = FuzzyBRepMap.load(out)
+    assert [again.table[k].support_in for k in (1, 2)] == [0.3, 0.5] and again.crisp.principal.fm.tolist() == [1, 2, 2, 1]
+    # a map without frontier edges keeps one function
+    plain = tmp_path / "plain.json"
+    fuzzify(BRepMap((Region(Ring([(0, 0), (5, 0), (5, 5), (0, 5)])),)), Triangular(0.2)).save(plain)
+    assert run("fuzzify", plain, "--tme", 0.3, "--out", out) == 0
+    assert FuzzyBRepMap.load(out).table.indices == [1]
 
 
 # -- GeoJSON input -----------------------------------------------------------------------------

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..brep import FRONTIER
 from ._maps import add_mf_arguments, fuzzify_from_args, read_crisp
 
 NAME = "fuzzify"
@@ -22,6 +23,10 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(args.out, inputs=(args.crisp,))
     crisp = read_crisp(args.crisp, args.unit)
+    if args.frontier_mf is None and any((r.kinds == FRONTIER).any() for r in crisp.rings):
+        # as `build` does: a built map's frontier vertices keep their own FM index, with the same
+        # function until told otherwise; one index for all would lose what the map knows
+        args.frontier_mf = args.mf
     fuzzy = fuzzify_from_args(crisp, args, tme_required=True)
     size = fuzzy.save(args.out, metadata={"source": str(args.crisp)})
     print(f"{args.out}: {len(fuzzy.crisp.rings)} rings ({fuzzy.crisp.n_holes} holes), "
