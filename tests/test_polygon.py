@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 from _synthetic import room, scan_of
 from hypothesis import HealthCheck, example, given, settings
@@ -227,9 +228,29 @@ def test_a_full_circle_with_a_depth_jump_keeps_every_wall_whole():
     assert len(lines) == 6 and lines.is_line.all()
 
 
+@pytest.mark.parametrize("bend", [8.0, 12.0, 20.0, 30.0])
+@pytest.mark.parametrize("toward", [True, False])
+@pytest.mark.parametrize("n", [181, 361])
+def test_a_wall_that_bends_gets_its_corner(bend, toward, n):
+    # a wall 3 m ahead bends by `bend` degrees at (3, 0), its corner toward the sensor or away.
+    # Each fitted line takes a few beams of the other wall (they lie within its tolerance), so
+    # neither ends near the corner; before, the corner was refused for that, and so for every
+    # bend under 15°, and the line's end stood 4-5 cm off both walls
+    phi, L = np.radians(bend) / 2, 4.0
+    x = 3.0 + (1 if toward else -1) * L * np.sin(phi)
+    free = shapely.Polygon([(-1, -L * np.cos(phi)), (x, -L * np.cos(phi)), (3, 0), (x, L * np.cos(phi)), (-1, L * np.cos(phi))])
+    for sigma, seed in ((0.0, 0), (0.01, 1), (0.01, 2)):
+        scan = scan_of(free, (0, 0, 0), n=n, sigma=sigma, seed=seed)
+        v = polygon(scan).ring.vertices
+        front = v[np.hypot(*v.T) > 2.5]  # the vertices on the front wall and its ends, in order
+        t = np.linspace(0, 1, 11)[:, None, None]
+        along = (front[:-1] + t * (front[1:] - front[:-1])).reshape(-1, 2)  # points along their edges
+        assert shapely.distance(free.exterior, shapely.points(along)).max() < 0.015
+
+
 def test_lines_meeting_at_less_than_the_corner_angle_share_no_vertex():
     # the north wall is a roof whose two halves meet at 30°: a shared vertex at its ridge with
-    # the default corner_angle (15°), none when corner_angle is 35°
+    # corner_angle 15°, none when corner_angle is 35°
     ridge = np.array([3.0, 4 + 3 * np.tan(np.radians(15))])
     free = shapely.Polygon([(0, 0), (6, 0), (6, 4), ridge, (0, 4)])
     for pose in [(2.9, 1.5, 0.0), (2.2, 1.0, 0.0)]:

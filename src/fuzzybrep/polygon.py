@@ -41,7 +41,9 @@ class PolygonConfig:
     lines: LineConfig = field(default_factory=LineConfig)
     jump_angle: float = np.radians(10.0)  #: λ of the adaptive depth-jump test (Borges & Aldon)
     jump_floor: float = 0.05  #: depth-jump allowance added to the geometric one (3σ of range noise)
-    corner_angle: float = np.radians(15.0)  #: lines meeting at less than this get no shared vertex
+    #: lines meeting at less than this get no shared vertex (15° left 10-15° bends 4-5 cm off their
+    #: walls; a far-off intersection of near-parallel lines fails the nearness tests anyway)
+    corner_angle: float = np.radians(5.0)
     corner_bridge: int = 2  #: stray single points between two lines that a corner may replace
     clearance: float = 0.05  #: free range kept along unknown beams (the sensor's own body)
 
@@ -228,8 +230,9 @@ class _Beams:
         """Each line's ends on its first and last beam, and corners where consecutive lines meet.
 
         Consecutive lines of one run share a corner vertex at their intersection (thesis
-        3.2.1.2) when they meet at a real angle, close to their end points and between their
-        rays; otherwise each keeps its own end and a short edge joins them. Up to
+        3.2.1.2) when they meet at a real angle, between their middle beams, and close to their
+        end points or to where the beam at the corner's bearing hit; otherwise each keeps its
+        own end and a short edge joins them. Up to
         ``corner_bridge`` stray points between two lines (the beams right at a corner often fit
         neither) give way to the corner.
         """
@@ -264,13 +267,10 @@ class _Beams:
                 # stray points within the loose tolerance, may hand a few beams of one wall to
                 # the other's line (at 0.25° several). A line's corner at its start stays before
                 # its middle beam and the one at its end after it: the order holds.
-                good = (
-                    np.isfinite(x)
-                    & (bx >= beta[(start[k] + stop[k] - 1) // 2])
-                    & (bx <= beta[(start[k + gap] + stop[k + gap] - 1) // 2])
-                    & (np.hypot(x - pts[j, 0], y - pts[j, 1]) <= near)
-                    & (np.hypot(x - pts[i, 0], y - pts[i, 1]) <= near)
-                )
+                lo, hi = (start[k] + stop[k] - 1) // 2, (start[k + gap] + stop[k + gap] - 1) // 2
+                near_ends = (np.hypot(x - pts[j, 0], y - pts[j, 1]) <= near) & (np.hypot(x - pts[i, 0], y - pts[i, 1]) <= near)
+                good = (np.isfinite(x) & (bx >= beta[lo]) & (bx <= beta[hi])
+                        & (near_ends | self._on_surface(x, y, bx, lo, hi)))
             k, x, y, j = k[good], x[good], y[good], j[good]
             corner[k] = True
             begins_at_corner[k + gap] = True
@@ -287,6 +287,28 @@ class _Beams:
         add(start[s_ok] + _S, sx[s_ok], sy[s_ok], OBSTACLE)
         e_ok = is_line & ~corner
         add(stop[e_ok] - 1 + _E, ex[e_ok], ey[e_ok], end_kind[e_ok])
+
+    def _on_surface(self, x, y, bx, lo, hi):
+        """Is (x, y), at bearing bx between beams lo and hi of one run, where the scan saw a surface?
+
+        The beam nearest to bx in bearing must have hit within twice the local beam spacing
+        of it (or 4 × the line tolerance). This finds a corner whose lines took a few beams of
+        each other's wall, so that neither line ends near it.
+        """
+        beta, pts, tol = self.beta, self.pts, self.tol
+        lo0, hi0 = lo, hi
+        ok = np.isfinite(bx)
+        bx = np.where(ok, bx, beta[lo])
+        while np.any(hi - lo > 1):  # bisection: beta[lo] <= bx <= beta[hi]
+            m = (lo + hi) // 2
+            up = beta[m] <= bx
+            lo, hi = np.where(up, m, lo), np.where(up, hi, m)
+        c = np.where(bx - beta[lo] <= beta[hi] - bx, lo, hi)
+        # the local spacing of the hits, from the beams either side (within the two lines)
+        before, after = np.maximum(c - 1, lo0), np.minimum(c + 1, hi0)
+        spacing = np.maximum(np.hypot(*(pts[c] - pts[before]).T), np.hypot(*(pts[after] - pts[c]).T))
+        near = np.maximum(4 * tol[c], 2 * spacing)
+        return ok & (np.hypot(x - pts[c, 0], y - pts[c, 1]) <= near)
 
     def _ray_points(self, theta, rho, i):
         """Where each line crosses beam i's ray; the beam's own point if that is far off."""
