@@ -178,6 +178,11 @@ def test_an_obstacle_is_cleared_by_clear_crossings_later_rays_and_more_than_its_
     four = [hit_at(2.02, 0)] * 4
     assert occupied_at(row_rays(*four, *(passing(t) for t in (1, 2, 3, 4))), cfg, 2.02)
     assert not occupied_at(row_rays(*four, *(passing(t) for t in (1, 2, 3, 4, 5))), cfg, 2.02)
+    # hits and crossings are counted exactly: the 3 x 3 hit sum was a float mean × 9, and 11 hits
+    # came to 10.999999999999998, so that 11 crossings cleared them
+    eleven = [hit_at(2.02, 0)] * 11
+    assert occupied_at(row_rays(*eleven, *(passing(t) for t in range(1, 12))), cfg, 2.02)
+    assert not occupied_at(row_rays(*eleven, *(passing(t) for t in range(1, 13))), cfg, 2.02)
 
 
 def test_only_crossings_after_the_last_hit_nearby_clear():
@@ -270,3 +275,11 @@ def test_carve_cuts_out_only_solidly_hit_occupied_cells_deep_inside_the_free_spa
         assert cut.contains(shapely.Point(*centre(*c)))
     for c in ((10, 10), (30, 1)):
         assert not cut.intersects(shapely.Point(*centre(*c)))
+
+
+def test_time_ranks_order_times_whether_sorted_or_not():
+    t = np.array([3.5, 3.5, 7.0, 1.0, 7.0, 2.0])
+    assert evidence.time_ranks(t).tolist() == [3, 3, 4, 1, 4, 2]
+    s = np.sort(t)
+    assert evidence.time_ranks(s).tolist() == [1, 2, 3, 3, 4, 4]  # the sorted path, no np.unique
+    assert evidence.time_ranks(s).dtype == np.int32 and len(evidence.time_ranks(np.zeros(0))) == 0
