@@ -14,8 +14,9 @@ isolated objects (legs, people, poles, judged from the held-out scan alone), and
 kept scan saw any return within TME, which no map of the kept scans could know (a person who
 passed by between two kept scans). A third says which violations the map is right about: those
 that came and went, where beams of kept scans passed more than TME beyond the endpoint both
-before and after the held-out scan saw something there. The rest is what a better map could
-have avoided.
+before and after the held-out scan saw something there. The rest (``violations_rest``) is what
+a better map of the kept scans could have avoided, or something kept scans saw stand and then
+saw through (the map keeps the newest evidence).
 """
 
 from __future__ import annotations
@@ -219,6 +220,9 @@ class Evaluation:
     #: share of held-out endpoints: exact violations that came and went, seen free by kept scans
     #: (beams passing more than TME beyond) both before and after: the map is right to call them free
     violations_came_and_went: float
+    #: share of held-out endpoints: exact violations neither unseen nor come and gone: a kept scan
+    #: saw a return within TME, and the map promises free space (wrongly, or it was seen to go)
+    violations_rest: float
     sweep: EndpointScore  # against the thesis's sweep band
     free_iou: float  # crisp free space vs the occupancy grid's free cells
     map_bytes_compact: int
@@ -284,13 +288,15 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
         scores[method] = score(pts, cut.inner, cut.outer)
     viol = scores["exact"].violated
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
-    unseen = float((~seen_near(pts[viol], kept, tme)).sum() / len(pts))  # asked of the violations only
+    unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
     times = np.repeat([s.timestamp for s in held], [int(scored(s, max_range).sum()) for s in held])  # per endpoint
     free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
     before, after = seen_free(pts[viol], times[viol], kept, free, tme)
-    came_and_went = float((before & after).sum() / len(pts))
+    came_and_went = before & after
+    rest = float((~unseen & ~came_and_went).sum() / len(pts))
+    unseen, came_and_went = float(unseen.sum() / len(pts)), float(came_and_went.sum() / len(pts))
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
-    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, unseen, came_and_went, scores["sweep"], iou, compact_bytes(fz), thesis,
+    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, unseen, came_and_went, rest, scores["sweep"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)
