@@ -171,6 +171,15 @@ def _sample_cells(g, nx: int, count: np.ndarray, lo: int, hi: int):
     return ray, k, cy * np.int32(nx) + cx
 
 
+def _cells_of(g, nx: int, ray: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The cells of samples (ray, k): the same arithmetic as _sample_cells, so the same cells."""
+    gx, gy, dx, dy = g
+    kf = k.astype(np.float32)
+    cx = (gx[ray] + kf * dx[ray]).astype(np.int32)
+    cy = (gy[ray] + kf * dy[ray]).astype(np.int32)
+    return cy * np.int32(nx) + cx
+
+
 def _chunks(length: np.ndarray, cfg: EvidenceConfig):
     """Ray index ranges whose samples fit in one batch."""
     per_ray = np.ceil(np.maximum(length, 0) / cfg.step) + 1
@@ -259,6 +268,7 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
     can_stop = hits > 0
     claims = ~rays.hit & (rays.length > 0)
     claims = claims if claims.any() else None
+    k_type = np.int16 if count.max(initial=0) <= np.iinfo(np.int16).max else np.int32
 
     def crossings(chunk):
         lo, hi = chunk
@@ -281,7 +291,8 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
         stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
         if len(stop) > cfg.cache * len(ray) / total:
             return counts, (lo, hi)
-        return counts, ((lo, hi), ray[stop], k[stop], c[stop])
+        # the cells are worked out again when needed: kept, they were a third of the cache
+        return counts, ((lo, hi), ray[stop], k[stop].astype(k_type))
 
     after_near = np.zeros(nx * ny, np.int32)
     crossed = np.zeros(nx * ny, np.int32)
@@ -338,8 +349,9 @@ def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np
     wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and claims.any() else None
 
     def first_conflict(chunk):
-        if len(chunk) == 4:  # kept by gather: the samples that could stop their rays
-            _, ray, k, c = chunk
+        if len(chunk) == 3:  # kept by gather: the samples that could stop their rays
+            _, ray, k = chunk
+            c = _cells_of(g, nx, ray, k)
         else:
             lo, hi = chunk
             ray, k, c = _sample_cells(g, nx, count, lo, hi)
