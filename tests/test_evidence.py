@@ -7,11 +7,13 @@ import dataclasses
 import numpy as np
 import pytest
 import shapely
-from _synthetic import scan_of
+from _synthetic import room, scan_of
 
 from fuzzybrep import evidence
-from fuzzybrep.build import BuildConfig, build_map
+from fuzzybrep.build import BuildConfig, build_map, rays_of
 from fuzzybrep.errors import GeometryError
+from fuzzybrep.polygon import PolygonConfig
+from fuzzybrep.scans.filters import BeamConfig, classify_all
 from fuzzybrep.scans.scan import Scan
 
 FULL = 2 * np.pi - np.radians(1)
@@ -283,3 +285,21 @@ def test_time_ranks_order_times_whether_sorted_or_not():
     s = np.sort(t)
     assert evidence.time_ranks(s).tolist() == [1, 2, 3, 3, 4, 4]  # the sorted path, no np.unique
     assert evidence.time_ranks(s).dtype == np.int32 and len(evidence.time_ranks(np.zeros(0))) == 0
+
+
+@pytest.mark.parametrize("step", [0.05, 0.0002])  # 0.0002: rays of more than 32767 samples keep int32 steps
+def test_clip_is_the_same_with_samples_cached_or_sampled_again(step):
+    # a room with a pillar, scans from three places, every fourth beam with no return (claiming 8 m
+    # of free space, so all its samples are kept): free ranges must not depend on what was cached
+    world = room(6, 4).difference(shapely.box(2.9, 1.9, 3.1, 2.1))
+    scans = [scan_of(world, (x, y, 0.2), n=91, fov=2 * np.pi * 90 / 91, t=float(k))
+             for k, (x, y) in enumerate([(1, 1), (5, 3), (1.5, 3)])]
+    scans = [dataclasses.replace(s, ranges=np.where(np.arange(len(s.ranges)) % 4 == 0, 60.0, s.ranges), max_range=60.0)
+             for s in scans]
+    rays = rays_of(scans, classify_all(scans, BeamConfig(no_return_free=8.0), PolygonConfig()))
+    base = evidence.EvidenceConfig(step=step, chunk=200_000)
+    free = [evidence.clip(rays, evidence.gather(rays, c), c)
+            for c in (base, dataclasses.replace(base, cache=0), dataclasses.replace(base, cache=10**12))]
+    assert (free[0] < rays.length).any()  # something was clipped
+    np.testing.assert_array_equal(free[0], free[1])
+    np.testing.assert_array_equal(free[0], free[2])
