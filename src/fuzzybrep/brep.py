@@ -298,14 +298,21 @@ def union(polygons, simplify: float = 0.0) -> shapely.Geometry:
     """
     polys = np.asarray(polygons, dtype=object)
 
-    def unite(part):
-        # simplifying and checking go polygon by polygon, so each part's worker does its own
-        if simplify > 0:
-            part = shapely.simplify(part, simplify)
+    def valid(part):
         bad = ~shapely.is_valid(part)
         if bad.any():
             part = part.copy()
             part[bad] = shapely.make_valid(part[bad])
+        return part
+
+    def unite(part):
+        # simplifying and checking go polygon by polygon, so each part's worker does its own
+        part = valid(part)
+        if simplify > 0:
+            # plain Douglas-Peucker, five times faster than the topology-preserving one (0.28 s
+            # against 1.4 s for Freiburg's 4791 polygons). Given valid polygons only: GEOS mends
+            # what it makes invalid by buffer(0), which drops a lobe of an invalid input
+            part = valid(shapely.simplify(part, simplify, preserve_topology=False))
         return shapely.union_all(part)
 
     workers = os.cpu_count() or 1
