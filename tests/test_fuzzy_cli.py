@@ -142,6 +142,31 @@ def test_memory_command(tmp_path, capsys):
     assert "0.1×0.1 m over the map's area (96 m²) | 9600 | 38400 |" in text
 
 
+def test_memory_command_defaults_to_the_thesis_grids_in_the_map_unit(tmp_path, capsys):
+    # before: the default cells were 0.3, 0.2 and 0.1 in the map's unit, so a map in millimetres
+    # (the thesis's unit) was compared with 0.1 mm grids of 38 million cells a square metre
+    m = tmp_path / "mm.json"
+    for unit, scale in (("m", 1.0), ("mm", 1000.0)):
+        src = tmp_path / f"{unit}.geojson"
+        src.write_text(json.dumps(polygon([(x * scale, y * scale) for x, y in SQUARE])))  # 100 m²
+        run("fuzzify", src, "--tme", 0.2 * scale, "--unit", unit, "--out", m)
+        capsys.readouterr()
+        assert run("memory", m) == 0
+        text = capsys.readouterr().out
+        size = {0.3: 300, 0.2: 200, 0.1: 100}
+        for c, n in ((0.3, 1112), (0.2, 2500), (0.1, 10000)):  # ceil(100 m² / c²)
+            label = f"{c:g}×{c:g} m" if unit == "m" else f"{size[c]}×{size[c]} mm"
+            assert f"occupancy grid {label} over the map's area" in text
+            assert f"| {n} | {4 * n} |" in text
+    ft = tmp_path / "ft.geojson"
+    ft.write_text(json.dumps(polygon(SQUARE)))
+    run("fuzzify", ft, "--tme", 0.5, "--unit", "ft", "--out", m)
+    capsys.readouterr()
+    assert run("memory", m) == 2  # no thesis grid in feet: asked for, not guessed
+    assert "mm.json: no default grid cells for unit 'ft': give them with --cell" in capsys.readouterr().err
+    assert run("memory", m, "--cell", 1) == 0
+
+
 def test_fuzzify_needs_a_tme_and_checks_the_function(plan, tmp_path, capsys):
     out = tmp_path / "m.json"
     assert run("fuzzify", plan, "--out", out) == 2

@@ -47,6 +47,8 @@ EXACT_QUAD_SEGS = 32
 #: tables, α-cuts and plans still work
 WIDEST_SUPPORT = 1e150
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
+#: the grids Table 5.3 compares with, 30, 20 and 10 cm, in each unit a map can be in
+THESIS_GRID_CELLS = {"m": (0.3, 0.2, 0.1), "cm": (30.0, 20.0, 10.0), "mm": (300.0, 200.0, 100.0)}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
 #: union on the jagged benchmark floor, 1.3-2× on Freiburg 079); the same result
@@ -723,8 +725,16 @@ class FuzzyBRepMap:
 
     # -- memory (Table 5.3) --------------------------------------------------------------------
 
-    def memory(self, cells=(0.3, 0.2, 0.1)) -> list[MemoryRow]:
-        """Table 5.3 for this map: thesis accounting, compact encoding, occupancy grids per cell size."""
+    def memory(self, cells=None) -> list[MemoryRow]:
+        """Table 5.3 for this map: thesis accounting, compact encoding, occupancy grids per cell size
+        (in the map's unit; by default the thesis's 30, 20 and 10 cm)."""
+        if cells is None:
+            # cells of 0.3 taken in the map's own unit were 0.3 mm on a map in millimetres, the
+            # thesis's unit: grids of gigabytes, compared with nothing the thesis compares
+            try:
+                cells = THESIS_GRID_CELLS[self.unit]
+            except KeyError:
+                raise GeometryError(f"no default grid cells for unit {self.unit!r}: give the cell sizes") from None
         n = self.crisp.n_vertices
         rows = memory_table(n, n, float(self.crisp_geometry.area), cells, unit=self.unit)
         rows.insert(1, MemoryRow("fuzzy B-rep, compact (vertices to 1 mm as varint steps, edge kinds, Table 4.2)", None,
