@@ -76,6 +76,8 @@ def edit(d, what):
         d["regions"] = {"shell": shell}
     elif what == "pose":
         d["scans"]["poses"][0][2] = float("nan")
+    elif what == "overlapping piece":
+        d["regions"].append({"shell": {"x": [3, 6, 6, 3], "y": [3, 3, 6, 6], "kind": [0] * 4, "fm": [1] * 4}})
     return d
 
 
@@ -91,6 +93,7 @@ def edit(d, what):
     ("metadata", "metadata must be an object"),                       # before: "cannot convert dictionary update ..."
     ("regions", "regions must be a list"),                            # before: "string indices must be integers"
     ("pose", "scans.poses row 1 is not finite"),                      # before: NaN written into the viewer's page
+    ("overlapping piece", "piece 2, vertex 1: overlaps principal near (3, 3)"),  # before: read, area counted twice
 ])
 def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     p = tmp_path / "m.json"
@@ -98,6 +101,18 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     fails(capsys, ["memory", p], "m.json: ", words)
     with pytest.raises(MapFileError, match=re.escape(words)):
         read_map(p)
+
+
+def test_a_piece_of_free_space_inside_a_hole_is_a_map(tmp_path):
+    # regions may nest (free space inside an obstacle); only overlapping ones are refused
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy import fuzzify
+
+    hole = Ring([(3, 3), (3, 7), (7, 7), (7, 3)])
+    island = Ring([(4, 4), (6, 4), (6, 6), (4, 6)])
+    crisp = BRepMap((Region(Ring([(0, 0), (10, 0), (10, 10), (0, 10)]), (hole,)), Region(island)))
+    fuzzify(crisp, tme=0.1).save(tmp_path / "m.json")
+    assert read_map(tmp_path / "m.json").crisp.area == 100 - 16 + 4
 
 
 # ------------------------------------------------------------------------- options

@@ -916,6 +916,29 @@ def validate_map(crisp: BRepMap) -> None:
     for region in crisp.regions:
         region_names, k = names[k:k + len(region.rings)], k + len(region.rings)
         check_region(region, region_names)  # the rings are simple now
+    _check_disjoint(crisp)
+
+
+def _check_disjoint(crisp: BRepMap) -> None:
+    """GeometryError if two regions overlap. Each region is a piece of free space apart from the
+    others (meeting at points at most); overlapping ones were taken as they were, their common
+    area counted twice and the α-cuts and rasters of each drawn over the other's."""
+    if len(crisp.regions) < 2:
+        return
+    polys = np.array([region.to_shapely() for region in crisp.regions], dtype=object)
+    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
+    a, b = a[a < b], b[a < b]
+    inside = shapely.relate_pattern(polys[a], polys[b], "T********")  # interiors meet
+    if not inside.any():
+        return
+    i, j = int(a[inside][0]), int(b[inside][0])
+    names = ["principal" if k == 0 else f"piece {k + 1}" for k in range(len(polys))]
+    shell = crisp.regions[j].shell.vertices
+    within = np.flatnonzero(shapely.contains_xy(polys[i], shell[:, 0], shell[:, 1]))
+    x, y = (shell[within[0]] if within.size else
+            np.asarray(shapely.intersection(polys[i], polys[j]).representative_point().coords[0]))
+    raise GeometryError(f"overlaps {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free space",
+                        ring=names[j], vertex=int(within[0]) + 1 if within.size else None)
 
 
 # ---------------------------------------------------------------------------------------------
