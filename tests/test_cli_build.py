@@ -85,6 +85,12 @@ def test_skip_bad_says_how_many(tmp_path, capsys):
     assert "not finite" in capsys.readouterr().err
     assert cli.main(["build", str(log), "--out", str(out), "--skip-bad"]) == 0
     assert "skipped 1 bad line" in capsys.readouterr().err
+    # evaluate --skip-bad said nothing of what it skipped (before: its report was dropped); on
+    # standard error, so that --json stays one JSON document
+    assert cli.main(["evaluate", str(log), "--skip-bad", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["scans_used"] == 3
+    assert f"skipped 1 bad line(s) or message(s); first: {log}, line 6, field range: 'nan' is not finite" in err
 
 
 def test_unreadable_map_file(tmp_path, capsys):

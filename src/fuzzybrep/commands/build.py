@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._logopts import add_log_arguments, read_log
+from ._logopts import add_log_arguments, read_log, read_notes
 from ._maps import DEFAULT_TME_M, add_mf_arguments
 from ._types import non_negative, number, positive
 
@@ -77,8 +77,8 @@ def run(args) -> int:
     scans, report = read_log(args)
     if args.consolidate:
         scans, report.consolidated = consolidate_pairs(scans)
-    if report.skipped:
-        console.print(f"[yellow]skipped {report.skipped} bad line(s)[/yellow]; first: {report.errors[0]}")
+    for line in read_notes(report):  # before: the bag's pose source was never shown, nor what was assumed
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
 
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=console, transient=True, disable=args.quiet or len(scans) < 200) as bar:

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 from ..errors import ScanValueError
-from ._logopts import add_log_arguments, read_log
+from ._logopts import add_log_arguments, read_log, read_notes
 from .grid import check_grid_size
 from ._types import number, positive
 
@@ -30,7 +31,9 @@ def run(args) -> int:
 
     from ..build import BuildConfig
     from ..evaluate import evaluate_log, ordinal
-    scans, _ = read_log(args)
+    scans, report = read_log(args)
+    for line in read_notes(report):  # on standard error: --json's output stays one JSON document
+        print(line, file=sys.stderr)
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
     check_grid_size(args.log, scans, args.resolution, cfg.beams.max_usable)
     try:
