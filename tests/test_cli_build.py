@@ -33,6 +33,9 @@ def test_build_writes_a_fuzzy_map_and_a_picture(tmp_path, capsys):
     assert cli.main(["build", str(log), "--out", str(out), "--plot", str(png)]) == 0
     err = capsys.readouterr().err
     assert "12 scans" in err and "vertices" in err and "holes" in err and "scans/s" in err
+    # one line, also when standard error is no terminal (before: wrapped at 80 columns, mid-path)
+    (summary,) = [line for line in err.splitlines() if "vertices" in line]
+    assert summary.startswith("scans.csv: 12 scans") and f"-> {out}, " in summary and summary.endswith("scans/s)")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     m = read_map(out)
     assert len(m.poses) == 12 and m.metadata["scans"] == 12

@@ -109,6 +109,7 @@ def run(args) -> int:
         + f", {crisp.n_vertices} vertices, {crisp.n_holes} holes"
         + (f", {pieces} detached piece(s) kept" if pieces else "")
         + f", free area {crisp.area:.1f} {crisp.unit}², {nbytes} bytes -> {args.out}"
-        + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)"
+        + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)",
+        soft_wrap=True,  # one line to grep in a log: rich wraps at 80 columns where stderr is no terminal
     )
     return 0
