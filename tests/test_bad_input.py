@@ -185,6 +185,19 @@ def test_out_below_a_file_or_on_a_folder_fails_before_the_work(tmp_path, capsys)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
+def test_a_file_name_ending_in_a_slash_is_a_folder_not_a_file(tmp_path, capsys):
+    # before: "--html out/" (out/ not there yet) wrote the page as a file named "out"
+    m = tmp_path / "m.json"
+    square_map(m)
+    words = "cannot write: the name ends with a slash, so it names a folder (give a file name)"
+    for argv in (["view", m, "--html"], ["alpha-cut", m, "--alpha", "0", "--out"], ["export", m, "--svg"],
+                 ["build", tmp_path / "not-read.log", "--out"]):
+        fails(capsys, [*argv, f"{tmp_path / 'out'}/"], "out/: " + words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+    assert cli.main(["export", str(m), "--ros", f"{tmp_path / 'ros'}/"]) == 0  # a folder where one is asked for
+    assert sorted(p.name for p in (tmp_path / "ros").iterdir()) == ["m.pgm", "m.yaml"]
+
+
 def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys, monkeypatch):
     log = tmp_path / "a.log"
     log.write_text("".join(flaser([1.0, 2.0, 1.5, 2.5, 9.0], (0.1 * k, 0.0, 0.0), k) for k in range(3)))
