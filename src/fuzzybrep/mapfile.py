@@ -261,11 +261,17 @@ def loads_json(raw: str | bytes):
 
 
 def read_map(path: str | os.PathLike) -> MapFile:
+    """A map file, or a compact map (``export --compact``): the same crisp map and Table 4.2,
+    without the scan poses."""
     path = Path(path)
     try:
         raw = path.read_bytes()
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    if raw[:4] == b"FBRC":  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
+        from .compact import read_compact  # compact builds on this module
+
+        return MapFile(*read_compact(path))
     try:
         d = loads_json(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

@@ -73,19 +73,31 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
 
 
 def read_crisp(path: str | Path, unit: str) -> BRepMap:
-    """A crisp map from GeoJSON, or from a fuzzybrep map file (its crisp part)."""
+    """A crisp map from GeoJSON, or from a fuzzybrep map file or compact map (its crisp part)."""
     path = Path(path)
-    if path.suffix.lower() == ".json":
+    crisp = None
+    if _is_compact(path):
+        crisp = read_map(path).crisp
+    elif path.suffix.lower() == ".json":
         try:
             obj = loads_json(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
             crisp = from_json(obj, path).crisp
-            # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
-            # frontier index 2 would have no function in a new one-function table
-            return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
-    return read_geojson(path, unit)
+    if crisp is None:
+        return read_geojson(path, unit)
+    # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
+    # frontier index 2 would have no function in a new one-function table
+    return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
+
+
+def _is_compact(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"FBRC"
+    except OSError:
+        return False  # read_geojson says why it cannot be read
 
 
 __all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "read_crisp",
