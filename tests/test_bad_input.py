@@ -350,7 +350,7 @@ def pose_beyond_any_grid(k, ranges, pose):
 def test_scan_far_from_the_rest_is_named(tmp_path, capsys, corrupt, words):
     log = tmp_path / "a.log"
     room_log(log, corrupt)
-    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt?")
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt, or the log not in metres?")
     assert not (tmp_path / "m.json").exists()
     if corrupt is far_range:  # evaluate builds its map alike (a far pose stops it earlier, at its grid's size)
         fails(capsys, ["evaluate", log], *words)
@@ -372,9 +372,25 @@ def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e300 + k))
     fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"],
           "a.log:1: the scan's position (1e+300, 0) lies 1e+300 m from (0, 0): a float places a 0.05 m cell "
-          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt?")
+          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt, or the log "
+          "not in metres?")
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
     assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+
+
+@pytest.mark.parametrize("command", ["build", "grid"])
+def test_a_log_in_millimetres_is_told_to_be_in_metres(tmp_path, capsys, command):
+    # the CSV format claimed any unit works; every setting of the build is metric (8 m usable
+    # range, 5 cm cells, TME 0.19913), and a log in mm was only asked whether it was corrupt
+    log = tmp_path / "mm.log"
+
+    def in_mm(k, ranges, pose):  # a robot that drove 12 m, logged in mm
+        ranges[:] = [1000 * r for r in ranges]
+        pose[0] = 4000.0 * k
+
+    room_log(log, in_mm)
+    extra = ["--out", tmp_path / "g"] if command == "grid" else ["--out", tmp_path / "m.json", "--quiet"]
+    fails(capsys, [command, log, *extra], "mm.log", "or the log not in metres?")
 
 
 # ------------------------------------------------------------------------- absurdly large sizes

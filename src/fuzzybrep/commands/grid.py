@@ -53,7 +53,7 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
         raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have "
                                         f"{cell_count_text(nx)} × {cell_count_text(ny)} cells (limit {MAX_CELLS}): give a "
                                         f"coarser --resolution; the farthest out is {what} in {source}, {d:.3g} m from the "
-                                        f"median scan position (is its range or pose corrupt?)")
+                                        f"median scan position (is its range or pose corrupt, or the log not in metres?)")
 
 
 def run(args) -> int:
