@@ -262,6 +262,8 @@ def test_ros2_storage_file_reads_its_whole_bag(tmp_path, scans, csv_scans):
     path = bag_of(tmp_path / "r2", scans, ros1=False)
     (db,) = path.glob("*.db3")
     same_scans(read_scans(db), csv_scans)
+    # and its metadata.yaml, what `ros2 bag info` shows (before: read as a CARMEN log, "no FLASER scans")
+    same_scans(read_scans(path / "metadata.yaml"), csv_scans)
 
 
 def test_build_and_grid_commands_read_bags(tmp_path, scans, capsys):
