@@ -292,3 +292,12 @@ def test_read_points(tmp_path):
     p.write_text("x,y\n\n")
     with pytest.raises(MapFileError, match="p.csv: no x,y points in the file"):
         read_points(p)
+    # a header naming x and y places them (before: the first two columns whatever their names,
+    # so "id,x,y" read the ids as x and "y,x" swapped every point without a word)
+    p.write_text("id,X,Y\n7,1,2\n8,3.5,-4\n")
+    assert read_points(p).tolist() == [[1, 2], [3.5, -4]]
+    p.write_text("y,x\n2,1\n")
+    assert read_points(p).tolist() == [[1, 2]]
+    p.write_text("id,x,y\n7,1\n")
+    with pytest.raises(MapFileError, match="line 2: expected x,y, got '7,1'"):
+        read_points(p)

@@ -145,7 +145,7 @@ def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
 
 def read_points(path: str | os.PathLike) -> np.ndarray:
     """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional; at
-    least one point."""
+    least one point. A header naming columns x and y says where they are (``id,x,y``)."""
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
@@ -154,19 +154,23 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
     pts = []
     first = True
+    ix, iy = 0, 1
     for line, row in enumerate(rows, 1):
         cells = [c.strip() for c in row]
         if not cells or not any(cells) or cells[0].startswith("#"):
             continue
         header, first = first, False
-        if len(cells) < 2:
+        if header and not any(is_float(c) for c in cells[:2]):  # a header line such as "x,y"
+            names = [c.lower() for c in cells]
+            if "x" in names and "y" in names:  # "id,x,y" or "y,x": read by name, not by place
+                ix, iy = names.index("x"), names.index("y")
+            continue
+        if len(cells) <= max(ix, iy):
             raise MapFileError(path, f"line {line}: expected x,y, got {','.join(cells)!r}")
         try:
-            x, y = float(cells[0]), float(cells[1])
+            x, y = float(cells[ix]), float(cells[iy])
         except ValueError:
-            if header and not any(is_float(c) for c in cells[:2]):
-                continue  # a header line such as "x,y"
-            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[0]!r}, {cells[1]!r}") from None
+            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[ix]!r}, {cells[iy]!r}") from None
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MapFileError(path, f"line {line}: x,y must be finite")
         pts.append((x, y))
