@@ -158,6 +158,8 @@ def test_memory_command_defaults_to_the_thesis_grids_in_the_map_unit(tmp_path, c
             label = f"{c:g}×{c:g} m" if unit == "m" else f"{size[c]}×{size[c]} mm"
             assert f"occupancy grid {label} over the map's area" in text
             assert f"| {n} | {4 * n} |" in text
+        # the box in the map's unit as a reader writes it (before: "1e+04×1e+04 mm" for 10000 mm)
+        assert f"over the bounding box ({10 * scale:g}×{10 * scale:g} {unit})" in text
     ft = tmp_path / "ft.geojson"
     ft.write_text(json.dumps(polygon(SQUARE)))
     run("fuzzify", ft, "--tme", 0.5, "--unit", "ft", "--out", m)

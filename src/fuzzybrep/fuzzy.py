@@ -743,7 +743,7 @@ class FuzzyBRepMap:
         for c in cells:
             nc = _cell_count(x1 - x0, c, self.unit) * _cell_count(y1 - y0, c, self.unit)
             rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {self.unit} over the bounding box "
-                                  f"({x1 - x0:.4g}×{y1 - y0:.4g} {self.unit})", nc, 4 * nc))
+                                  f"({x1 - x0:.6g}×{y1 - y0:.6g} {self.unit})", nc, 4 * nc))
         return rows
 
     # -- files ---------------------------------------------------------------------------------
