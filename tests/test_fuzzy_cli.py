@@ -244,6 +244,36 @@ def test_geojson_kinds():
     assert len(crisp_from_geojson(unclosed).principal) == 3
 
 
+def test_a_floor_plan_in_the_simulators_scheme_reads_as_its_free_space(tmp_path, capsys):
+    # before: the route and glass lines were refused ("a LineString has no area"), and without
+    # them the obstacle polygons were united with the free space (a pillar mapped as floor) and
+    # the file's "unit" ignored (a plan in mm read as metres)
+    mm = lambda ring: [[1000 * x, 1000 * y] for x, y in (*ring, ring[0])]  # noqa: E731
+    plan = tmp_path / "room.geojson"
+    plan.write_text(json.dumps({"type": "FeatureCollection", "unit": "mm", "features": [
+        {"type": "Feature", "properties": {"role": "free"},
+         "geometry": {"type": "Polygon", "coordinates": [mm([(0, 0), (10, 0), (10, 6), (0, 6)])]}},
+        {"type": "Feature", "properties": {"role": "obstacle"},
+         "geometry": {"type": "Polygon", "coordinates": [mm([(4, 2.5), (5, 2.5), (5, 3.5), (4, 3.5)])]}},
+        {"type": "Feature", "properties": {"material": "glass"},
+         "geometry": {"type": "LineString", "coordinates": [[0, 0], [10000, 0]]}},
+        {"type": "Feature", "properties": {"role": "route", "spacing": 2},
+         "geometry": {"type": "LineString", "coordinates": [[1000, 1000], [9000, 1000]]}}]}))
+    out = tmp_path / "room.json"
+    assert run("fuzzify", plan, "--tme", 200, "--out", out) == 0
+    fz = FuzzyBRepMap.load(out)
+    assert fz.unit == "mm" and fz.crisp.n_holes == 1 and fz.crisp.area == 60e6 - 1e6
+    assert run("fuzzify", plan, "--tme", 0.2, "--unit", "m", "--out", out) == 2
+    assert "room.geojson: the file's unit is 'mm', but 'm' was given" in capsys.readouterr().err
+    # the demo's own floorplan.geojson: the built-in floor's free space, its block a hole
+    from fuzzybrep.simulate import builtin_floor, builtin_route
+
+    world = builtin_floor()
+    world.write_geojson(tmp_path / "floorplan.geojson", builtin_route())
+    crisp = read_geojson(tmp_path / "floorplan.geojson")
+    assert crisp.unit == "m" and crisp.to_shapely().symmetric_difference(world.free).area < 1e-9
+
+
 @pytest.mark.parametrize("obj, error, match", [
     ({"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [0, 4], [6, 4], [0, 0]]]}, GeometryError,
      r"polygon outer ring, vertex \d: self-intersecting"),

@@ -72,7 +72,7 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
     return FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
 
 
-def read_crisp(path: str | Path, unit: str) -> BRepMap:
+def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
     """A crisp map from GeoJSON, or from a fuzzybrep map file or compact map (its crisp part)."""
     path = Path(path)
     crisp = None
