@@ -185,6 +185,16 @@ def test_out_below_a_file_or_on_a_folder_fails_before_the_work(tmp_path, capsys)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
+def test_a_bad_membership_function_fails_before_the_build(tmp_path, capsys):
+    # before: found by fuzzify at the very end, once the whole log had been read and mapped
+    missing_log = tmp_path / "not-read.log"  # the options are checked first: the log is never opened
+    out = tmp_path / "m.json"
+    fails(capsys, ["build", missing_log, "--out", out, "--mf", "A4:p=5"], "A4(p=5, TME=0.19913): criterion 1")
+    fails(capsys, ["build", missing_log, "--out", out, "--frontier-mf", "bogus"], "unknown membership function type 'bogus'")
+    fails(capsys, ["build", missing_log, "--out", out, "--tme", "-1"], "must be a positive finite number, got -1.0")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 def test_a_file_name_ending_in_a_slash_is_a_folder_not_a_file(tmp_path, capsys):
     # before: "--html out/" (out/ not there yet) wrote the page as a file named "out"
     m = tmp_path / "m.json"

@@ -44,11 +44,18 @@ def tme_from_args(args: argparse.Namespace, required: bool = False) -> float | N
     return None
 
 
-def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bool = False) -> FuzzyBRepMap:
-    """fuzzify() with the options of ``add_mf_arguments``."""
+def mf_from_args(args: argparse.Namespace, tme_required: bool = False):
+    """(membership function, frontier function or None) of the options of ``add_mf_arguments``;
+    MembershipFunctionError for a bad spec or TME. ``build`` calls it before its work, so that a
+    typo is not found only once the map is built."""
     tme = tme_from_args(args, tme_required)
     mf = parse_spec(args.mf, tme)
-    frontier = parse_spec(args.frontier_mf, tme) if args.frontier_mf else None
+    return mf, parse_spec(args.frontier_mf, tme) if args.frontier_mf else None
+
+
+def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bool = False) -> FuzzyBRepMap:
+    """fuzzify() with the options of ``add_mf_arguments``."""
+    mf, frontier = mf_from_args(args, tme_required)
     return fuzzify(crisp, mf, frontier_mf=frontier)
 
 
@@ -100,5 +107,5 @@ def _is_compact(path: Path) -> bool:
         return False  # read_geojson says why it cannot be read
 
 
-__all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "read_crisp",
-           "tme_from_args"]
+__all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "mf_from_args",
+           "read_crisp", "tme_from_args"]
