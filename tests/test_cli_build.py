@@ -57,6 +57,25 @@ def test_build_with_iepf_and_a_theta_step(tmp_path):
     assert read_map(out).membership_functions[0]["tme"] == 0.1
 
 
+def test_build_tme_sets_the_vertex_reduction_as_in_evaluate(tmp_path):
+    # README: boundaries are simplified within TME/4. Before, build's --tme reached only the
+    # membership function (evaluate's reached both): a 10 cm notch survived --tme 0.8
+    from dataclasses import replace
+
+    from fuzzybrep.build import BuildConfig, build_map
+    from fuzzybrep.scans.csvscans import read_csv
+
+    notched = shapely.Polygon([(0, 0), (6, 0), (6, 4), (3.2, 4), (3.2, 4.1), (2.8, 4.1), (2.8, 4), (0, 4)])
+    poses = [(1, 1, 0), (3, 2, 1), (5, 3, 2), (2, 3, -1), (4, 1, 0.5)]
+    log = tmp_path / "notch.csv"
+    write_csv(log, [scan_of(notched, p, n=361, fov=2 * np.pi * 359 / 360, t=float(k)) for k, p in enumerate(poses)])
+    out = tmp_path / "m.json"
+    for tme, vertices in ((None, 8), (0.8, 4)):  # the notch kept within 5 cm, gone within 20 cm
+        assert cli.main(["build", str(log), "--out", str(out), "--quiet"] + (["--tme", str(tme)] if tme else [])) == 0
+        want = build_map(read_csv(log), replace(BuildConfig(), tme=tme) if tme else BuildConfig()).crisp
+        assert read_map(out).crisp.equals_exactly(want) and want.n_vertices == vertices
+
+
 def test_export_geojson_has_the_crisp_free_space(tmp_path):
     log, _ = scans_csv(tmp_path)
     out, gj = tmp_path / "m.json", tmp_path / "m.geojson"

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ._logopts import add_log_arguments, read_log, read_notes
-from ._maps import DEFAULT_TME_M, add_mf_arguments
+from ._maps import DEFAULT_TME_M, add_mf_arguments, tme_from_args
 from ._types import non_negative, number, positive
 
 NAME = "build"
@@ -35,7 +35,7 @@ def add_arguments(p) -> None:
                    help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
     p.add_argument("--min-hole-area", type=non_negative, help="prune holes smaller than this (map unit², default from the config)")
-    p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default from the config)")
+    p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default TME/4)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M)
 
@@ -50,6 +50,9 @@ def config_from_args(args):
         polygon=replace(cfg.polygon, lines=replace(cfg.polygon.lines, method=args.lines, theta_step=args.theta_step)),
         evidence=replace(cfg.evidence, clear=not args.no_clear),
         use_evidence=not args.no_evidence,
+        # the uncertainty the map carries also sets its vertex reduction (TME/4), as in evaluate;
+        # before, --tme reached only the membership function
+        tme=tme_from_args(args),
     )
     if args.min_hole_area is not None:
         cfg = replace(cfg, min_hole_area=args.min_hole_area)
