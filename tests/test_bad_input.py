@@ -139,6 +139,9 @@ def test_a_piece_of_free_space_inside_a_hole_is_a_map(tmp_path):
     (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
     # before: accepted, and Table 5.3 gave a grid of 0 cells for the map
     (["memory", "MAP", "--cell", "inf"], "argument --cell: cell size must be a positive finite number, got inf"),
+    # before: refused by fuzzify once the map was built from the whole log (11 s into Freiburg 079)
+    (["evaluate", "LOG", "--tme", "-1"], "argument --tme: -1 must be a positive number"),
+    (["evaluate", "LOG", "--tme", "nan"], "argument --tme: nan must be a positive number"),
 ])
 def test_bad_options_are_usage_errors(capsys, argv, words):
     with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written
