@@ -76,6 +76,8 @@ def edit(d, what):
         d["regions"] = {"shell": shell}
     elif what == "pose":
         d["scans"]["poses"][0][2] = float("nan")
+    elif what == "overlapping piece":
+        d["regions"].append({"shell": {"x": [3, 6, 6, 3], "y": [3, 3, 6, 6], "kind": [0] * 4, "fm": [1] * 4}})
     return d
 
 
@@ -91,6 +93,7 @@ def edit(d, what):
     ("metadata", "metadata must be an object"),                       # before: "cannot convert dictionary update ..."
     ("regions", "regions must be a list"),                            # before: "string indices must be integers"
     ("pose", "scans.poses row 1 is not finite"),                      # before: NaN written into the viewer's page
+    ("overlapping piece", "piece 2, vertex 1: overlaps principal near (3, 3)"),  # before: read, area counted twice
 ])
 def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     p = tmp_path / "m.json"
@@ -98,6 +101,18 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     fails(capsys, ["memory", p], "m.json: ", words)
     with pytest.raises(MapFileError, match=re.escape(words)):
         read_map(p)
+
+
+def test_a_piece_of_free_space_inside_a_hole_is_a_map(tmp_path):
+    # regions may nest (free space inside an obstacle); only overlapping ones are refused
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy import fuzzify
+
+    hole = Ring([(3, 3), (3, 7), (7, 7), (7, 3)])
+    island = Ring([(4, 4), (6, 4), (6, 6), (4, 6)])
+    crisp = BRepMap((Region(Ring([(0, 0), (10, 0), (10, 10), (0, 10)]), (hole,)), Region(island)))
+    fuzzify(crisp, tme=0.1).save(tmp_path / "m.json")
+    assert read_map(tmp_path / "m.json").crisp.area == 100 - 16 + 4
 
 
 # ------------------------------------------------------------------------- options
@@ -124,6 +139,9 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     (["grid", "LOG", "--out", "G", "--name", ""], "argument --name: name must be a plain file name"),
     # before: accepted, and Table 5.3 gave a grid of 0 cells for the map
     (["memory", "MAP", "--cell", "inf"], "argument --cell: cell size must be a positive finite number, got inf"),
+    # before: refused by fuzzify once the map was built from the whole log (11 s into Freiburg 079)
+    (["evaluate", "LOG", "--tme", "-1"], "argument --tme: -1 must be a positive number"),
+    (["evaluate", "LOG", "--tme", "nan"], "argument --tme: nan must be a positive number"),
 ])
 def test_bad_options_are_usage_errors(capsys, argv, words):
     with pytest.raises(SystemExit) as e:  # argparse stops before any file is read or written
@@ -168,6 +186,29 @@ def test_out_below_a_file_or_on_a_folder_fails_before_the_work(tmp_path, capsys)
           "cannot write: it is a folder")
     fails(capsys, ["demo", "--out", tmp_path / "afile"], "afile is a file, not a folder")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_a_bad_membership_function_fails_before_the_build(tmp_path, capsys):
+    # before: found by fuzzify at the very end, once the whole log had been read and mapped
+    missing_log = tmp_path / "not-read.log"  # the options are checked first: the log is never opened
+    out = tmp_path / "m.json"
+    fails(capsys, ["build", missing_log, "--out", out, "--mf", "A4:p=5"], "A4(p=5, TME=0.19913): criterion 1")
+    fails(capsys, ["build", missing_log, "--out", out, "--frontier-mf", "bogus"], "unknown membership function type 'bogus'")
+    fails(capsys, ["build", missing_log, "--out", out, "--tme", "-1"], "must be a positive finite number, got -1.0")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_file_name_ending_in_a_slash_is_a_folder_not_a_file(tmp_path, capsys):
+    # before: "--html out/" (out/ not there yet) wrote the page as a file named "out"
+    m = tmp_path / "m.json"
+    square_map(m)
+    words = "cannot write: the name ends with a slash, so it names a folder (give a file name)"
+    for argv in (["view", m, "--html"], ["alpha-cut", m, "--alpha", "0", "--out"], ["export", m, "--svg"],
+                 ["build", tmp_path / "not-read.log", "--out"]):
+        fails(capsys, [*argv, f"{tmp_path / 'out'}/"], "out/: " + words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+    assert cli.main(["export", str(m), "--ros", f"{tmp_path / 'ros'}/"]) == 0  # a folder where one is asked for
+    assert sorted(p.name for p in (tmp_path / "ros").iterdir()) == ["m.pgm", "m.yaml"]
 
 
 def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys, monkeypatch):
@@ -322,7 +363,7 @@ def pose_beyond_any_grid(k, ranges, pose):
 def test_scan_far_from_the_rest_is_named(tmp_path, capsys, corrupt, words):
     log = tmp_path / "a.log"
     room_log(log, corrupt)
-    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt?")
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], *words, "is the range or the pose corrupt, or the log not in metres?")
     assert not (tmp_path / "m.json").exists()
     if corrupt is far_range:  # evaluate builds its map alike (a far pose stops it earlier, at its grid's size)
         fails(capsys, ["evaluate", log], *words)
@@ -344,9 +385,25 @@ def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e300 + k))
     fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"],
           "a.log:1: the scan's position (1e+300, 0) lies 1e+300 m from (0, 0): a float places a 0.05 m cell "
-          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt?")
+          "of the evidence grid only within ±3.52e+12 m of (0, 0); is the range or the pose corrupt, or the log "
+          "not in metres?")
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
     assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+
+
+@pytest.mark.parametrize("command", ["build", "grid"])
+def test_a_log_in_millimetres_is_told_to_be_in_metres(tmp_path, capsys, command):
+    # the CSV format claimed any unit works; every setting of the build is metric (8 m usable
+    # range, 5 cm cells, TME 0.19913), and a log in mm was only asked whether it was corrupt
+    log = tmp_path / "mm.log"
+
+    def in_mm(k, ranges, pose):  # a robot that drove 12 m, logged in mm
+        ranges[:] = [1000 * r for r in ranges]
+        pose[0] = 4000.0 * k
+
+    room_log(log, in_mm)
+    extra = ["--out", tmp_path / "g"] if command == "grid" else ["--out", tmp_path / "m.json", "--quiet"]
+    fails(capsys, [command, log, *extra], "mm.log", "or the log not in metres?")
 
 
 # ------------------------------------------------------------------------- absurdly large sizes

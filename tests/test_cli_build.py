@@ -33,6 +33,9 @@ def test_build_writes_a_fuzzy_map_and_a_picture(tmp_path, capsys):
     assert cli.main(["build", str(log), "--out", str(out), "--plot", str(png)]) == 0
     err = capsys.readouterr().err
     assert "12 scans" in err and "vertices" in err and "holes" in err and "scans/s" in err
+    # one line, also when standard error is no terminal (before: wrapped at 80 columns, mid-path)
+    (summary,) = [line for line in err.splitlines() if "vertices" in line]
+    assert summary.startswith("scans.csv: 12 scans") and f"-> {out}, " in summary and summary.endswith("scans/s)")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     m = read_map(out)
     assert len(m.poses) == 12 and m.metadata["scans"] == 12
@@ -52,6 +55,25 @@ def test_build_with_iepf_and_a_theta_step(tmp_path):
     assert cli.main(["build", str(log), "--out", str(out), "--lines", "iepf", "--quiet"]) == 0
     assert cli.main(["build", str(log), "--out", str(out), "--theta-step", "0.5", "--tme", "0.1", "--quiet"]) == 0
     assert read_map(out).membership_functions[0]["tme"] == 0.1
+
+
+def test_build_tme_sets_the_vertex_reduction_as_in_evaluate(tmp_path):
+    # README: boundaries are simplified within TME/4. Before, build's --tme reached only the
+    # membership function (evaluate's reached both): a 10 cm notch survived --tme 0.8
+    from dataclasses import replace
+
+    from fuzzybrep.build import BuildConfig, build_map
+    from fuzzybrep.scans.csvscans import read_csv
+
+    notched = shapely.Polygon([(0, 0), (6, 0), (6, 4), (3.2, 4), (3.2, 4.1), (2.8, 4.1), (2.8, 4), (0, 4)])
+    poses = [(1, 1, 0), (3, 2, 1), (5, 3, 2), (2, 3, -1), (4, 1, 0.5)]
+    log = tmp_path / "notch.csv"
+    write_csv(log, [scan_of(notched, p, n=361, fov=2 * np.pi * 359 / 360, t=float(k)) for k, p in enumerate(poses)])
+    out = tmp_path / "m.json"
+    for tme, vertices in ((None, 8), (0.8, 4)):  # the notch kept within 5 cm, gone within 20 cm
+        assert cli.main(["build", str(log), "--out", str(out), "--quiet"] + (["--tme", str(tme)] if tme else [])) == 0
+        want = build_map(read_csv(log), replace(BuildConfig(), tme=tme) if tme else BuildConfig()).crisp
+        assert read_map(out).crisp.equals_exactly(want) and want.n_vertices == vertices
 
 
 def test_export_geojson_has_the_crisp_free_space(tmp_path):
@@ -85,6 +107,12 @@ def test_skip_bad_says_how_many(tmp_path, capsys):
     assert "not finite" in capsys.readouterr().err
     assert cli.main(["build", str(log), "--out", str(out), "--skip-bad"]) == 0
     assert "skipped 1 bad line" in capsys.readouterr().err
+    # evaluate --skip-bad said nothing of what it skipped (before: its report was dropped); on
+    # standard error, so that --json stays one JSON document
+    assert cli.main(["evaluate", str(log), "--skip-bad", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["scans_used"] == 3
+    assert f"skipped 1 bad line(s) or message(s); first: {log}, line 6, field range: 'nan' is not finite" in err
 
 
 def test_unreadable_map_file(tmp_path, capsys):

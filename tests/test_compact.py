@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from fuzzybrep import BRepMap, MapFileError, Region, Ring
 from fuzzybrep.compact import (FM_EXPLICIT, FM_FROM_KINDS, decode, decode_varints, encode, encode_varints, fm_from_kinds,
                                quantised, read_compact, snap_rounded, write_compact)
-from fuzzybrep.fuzzy import compact_bytes, fuzzify, validate_map
+from fuzzybrep.fuzzy import FuzzyBRepMap, compact_bytes, fuzzify, validate_map
 from fuzzybrep.membership import Triangular
 
 
@@ -224,3 +224,28 @@ def test_export_says_how_many_vertices_the_file_holds(tmp_path, capsys):
     assert cli.main(["export", str(m), "--compact", str(out)]) == 0
     crisp, _ = read_compact(out)
     assert f"({crisp.n_vertices} vertices, {notched_map().n_vertices} before snap rounding)" in capsys.readouterr().out
+
+
+def test_map_commands_read_the_compact_map(tmp_path, capsys):
+    # before: every command that reads a map said "not valid JSON ('utf-8' codec can't decode ...)"
+    import json
+
+    from fuzzybrep import cli
+
+    fz = fuzzify(sample_map(), Triangular(0.19913), frontier_mf=Triangular(0.3))
+    m, out = tmp_path / "m.json", tmp_path / "m.fbrc"
+    fz.save(m)
+    assert cli.main(["export", str(m), "--compact", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["memory", str(out)]) == 0
+    assert f"{out}: 42 vertices, 42 edges in 7 rings" in capsys.readouterr().out  # 4 + 5 × 7 + 3
+    assert cli.main(["alpha-cut", str(out), "--alpha", "0.5"]) == 0
+    cut = shapely.geometry.shape(json.loads(capsys.readouterr().out)["features"][1]["geometry"])
+    assert cut.symmetric_difference(fz.alpha_cut(0.5).inner).area < 0.01  # vertices within half a millimetre
+    assert cli.main(["plan", str(out), "--start", "1", "1", "--goal", "11", "8", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["length"] == pytest.approx(np.hypot(10, 7), abs=0.5)
+    again = tmp_path / "again.json"  # and fuzzify takes its crisp map, as from a map file
+    assert cli.main(["fuzzify", str(out), "--tme", "0.25", "--out", str(again)]) == 0
+    got = FuzzyBRepMap.load(again)
+    assert got.table[1].tme_in == 0.25
+    assert all(np.array_equal(a.vertices, b.vertices) for a, b in zip(read_compact(out)[0].rings, got.crisp.rings))

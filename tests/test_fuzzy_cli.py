@@ -142,6 +142,33 @@ def test_memory_command(tmp_path, capsys):
     assert "0.1×0.1 m over the map's area (96 m²) | 9600 | 38400 |" in text
 
 
+def test_memory_command_defaults_to_the_thesis_grids_in_the_map_unit(tmp_path, capsys):
+    # before: the default cells were 0.3, 0.2 and 0.1 in the map's unit, so a map in millimetres
+    # (the thesis's unit) was compared with 0.1 mm grids of 38 million cells a square metre
+    m = tmp_path / "mm.json"
+    for unit, scale in (("m", 1.0), ("mm", 1000.0)):
+        src = tmp_path / f"{unit}.geojson"
+        src.write_text(json.dumps(polygon([(x * scale, y * scale) for x, y in SQUARE])))  # 100 m²
+        run("fuzzify", src, "--tme", 0.2 * scale, "--unit", unit, "--out", m)
+        capsys.readouterr()
+        assert run("memory", m) == 0
+        text = capsys.readouterr().out
+        size = {0.3: 300, 0.2: 200, 0.1: 100}
+        for c, n in ((0.3, 1112), (0.2, 2500), (0.1, 10000)):  # ceil(100 m² / c²)
+            label = f"{c:g}×{c:g} m" if unit == "m" else f"{size[c]}×{size[c]} mm"
+            assert f"occupancy grid {label} over the map's area" in text
+            assert f"| {n} | {4 * n} |" in text
+        # the box in the map's unit as a reader writes it (before: "1e+04×1e+04 mm" for 10000 mm)
+        assert f"over the bounding box ({10 * scale:g}×{10 * scale:g} {unit})" in text
+    ft = tmp_path / "ft.geojson"
+    ft.write_text(json.dumps(polygon(SQUARE)))
+    run("fuzzify", ft, "--tme", 0.5, "--unit", "ft", "--out", m)
+    capsys.readouterr()
+    assert run("memory", m) == 2  # no thesis grid in feet: asked for, not guessed
+    assert "mm.json: no default grid cells for unit 'ft': give them with --cell" in capsys.readouterr().err
+    assert run("memory", m, "--cell", 1) == 0
+
+
 def test_fuzzify_needs_a_tme_and_checks_the_function(plan, tmp_path, capsys):
     out = tmp_path / "m.json"
     assert run("fuzzify", plan, "--out", out) == 2
@@ -229,6 +256,36 @@ def test_geojson_kinds():
     assert len(crisp_from_geojson(unclosed).principal) == 3
 
 
+def test_a_floor_plan_in_the_simulators_scheme_reads_as_its_free_space(tmp_path, capsys):
+    # before: the route and glass lines were refused ("a LineString has no area"), and without
+    # them the obstacle polygons were united with the free space (a pillar mapped as floor) and
+    # the file's "unit" ignored (a plan in mm read as metres)
+    mm = lambda ring: [[1000 * x, 1000 * y] for x, y in (*ring, ring[0])]  # noqa: E731
+    plan = tmp_path / "room.geojson"
+    plan.write_text(json.dumps({"type": "FeatureCollection", "unit": "mm", "features": [
+        {"type": "Feature", "properties": {"role": "free"},
+         "geometry": {"type": "Polygon", "coordinates": [mm([(0, 0), (10, 0), (10, 6), (0, 6)])]}},
+        {"type": "Feature", "properties": {"role": "obstacle"},
+         "geometry": {"type": "Polygon", "coordinates": [mm([(4, 2.5), (5, 2.5), (5, 3.5), (4, 3.5)])]}},
+        {"type": "Feature", "properties": {"material": "glass"},
+         "geometry": {"type": "LineString", "coordinates": [[0, 0], [10000, 0]]}},
+        {"type": "Feature", "properties": {"role": "route", "spacing": 2},
+         "geometry": {"type": "LineString", "coordinates": [[1000, 1000], [9000, 1000]]}}]}))
+    out = tmp_path / "room.json"
+    assert run("fuzzify", plan, "--tme", 200, "--out", out) == 0
+    fz = FuzzyBRepMap.load(out)
+    assert fz.unit == "mm" and fz.crisp.n_holes == 1 and fz.crisp.area == 60e6 - 1e6
+    assert run("fuzzify", plan, "--tme", 0.2, "--unit", "m", "--out", out) == 2
+    assert "room.geojson: the file's unit is 'mm', but 'm' was given" in capsys.readouterr().err
+    # the demo's own floorplan.geojson: the built-in floor's free space, its block a hole
+    from fuzzybrep.simulate import builtin_floor, builtin_route
+
+    world = builtin_floor()
+    world.write_geojson(tmp_path / "floorplan.geojson", builtin_route())
+    crisp = read_geojson(tmp_path / "floorplan.geojson")
+    assert crisp.unit == "m" and crisp.to_shapely().symmetric_difference(world.free).area < 1e-9
+
+
 @pytest.mark.parametrize("obj, error, match", [
     ({"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [0, 4], [6, 4], [0, 0]]]}, GeometryError,
      r"polygon outer ring, vertex \d: self-intersecting"),
@@ -278,4 +335,13 @@ def test_read_points(tmp_path):
         read_points(p)
     p.write_text("x,y\n\n")
     with pytest.raises(MapFileError, match="p.csv: no x,y points in the file"):
+        read_points(p)
+    # a header naming x and y places them (before: the first two columns whatever their names,
+    # so "id,x,y" read the ids as x and "y,x" swapped every point without a word)
+    p.write_text("id,X,Y\n7,1,2\n8,3.5,-4\n")
+    assert read_points(p).tolist() == [[1, 2], [3.5, -4]]
+    p.write_text("y,x\n2,1\n")
+    assert read_points(p).tolist() == [[1, 2]]
+    p.write_text("id,x,y\n7,1\n")
+    with pytest.raises(MapFileError, match="line 2: expected x,y, got '7,1'"):
         read_points(p)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 
@@ -261,6 +262,8 @@ def test_ros2_storage_file_reads_its_whole_bag(tmp_path, scans, csv_scans):
     path = bag_of(tmp_path / "r2", scans, ros1=False)
     (db,) = path.glob("*.db3")
     same_scans(read_scans(db), csv_scans)
+    # and its metadata.yaml, what `ros2 bag info` shows (before: read as a CARMEN log, "no FLASER scans")
+    same_scans(read_scans(path / "metadata.yaml"), csv_scans)
 
 
 def test_build_and_grid_commands_read_bags(tmp_path, scans, capsys):
@@ -270,6 +273,22 @@ def test_build_and_grid_commands_read_bags(tmp_path, scans, capsys):
     assert cli.main(["grid", str(path), "--out", str(tmp_path / "g"), "--odom-topic", "/odom"]) == 0
     assert "poses from odometry /odom" in capsys.readouterr().out
     assert (tmp_path / "g" / "map.pgm").is_file() and (tmp_path / "g" / "map.yaml").is_file()
+
+
+def test_build_and_evaluate_say_where_the_poses_came_from(tmp_path, scans, capsys):
+    # before: only grid printed the reader's notes; build and evaluate took the laser to sit on
+    # base_link (the bag has no tf) without a word
+    path = bag_of(tmp_path / "room.bag", scans)
+    assumed = "note: laser frame 'laser' is not in tf: taken to sit on odometry's frame 'base_link'"
+    source = "note: laser: poses from odometry /odom (odom -> base_link)"
+    assert cli.main(["build", str(path), "--out", str(tmp_path / "m.json")]) == 0
+    err = capsys.readouterr().err
+    assert assumed in err and source in err
+    assert cli.main(["evaluate", str(path), "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["scans_used"] == 4 and assumed in err and source in err
+    assert cli.main(["build", str(path), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
 
 
 # ------------------------------------------------------------------------- bad bags

@@ -147,7 +147,9 @@ def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m"
     else:
         return
     what, d, source = farthest_out(scans, centre)
-    raise ScanValueError(source, None, f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt?")
+    # a log in millimetres lands here too (every setting of the build is metric): say so
+    raise ScanValueError(source, None, f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt, "
+                                       f"or the log not in metres?")
 
 
 def farthest_out(scans: Sequence[Scan], centre) -> tuple[str, float, str]:

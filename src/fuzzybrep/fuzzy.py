@@ -47,6 +47,8 @@ EXACT_QUAD_SEGS = 32
 #: tables, α-cuts and plans still work
 WIDEST_SUPPORT = 1e150
 _DEFAULT_TME = {"m": DEFAULT_TME_M, "mm": THESIS_TME_MM, "cm": DEFAULT_TME_M * 100}
+#: the grids Table 5.3 compares with, 30, 20 and 10 cm, in each unit a map can be in
+THESIS_GRID_CELLS = {"m": (0.3, 0.2, 0.1), "cm": (30.0, 20.0, 10.0), "mm": (300.0, 200.0, 100.0)}
 #: union of many polygons: GEOS's disjoint-subset union (3.12 on) first splits them into groups
 #: apart from each other, as the buffered holes of a map mostly are (20× faster than the cascaded
 #: union on the jagged benchmark floor, 1.3-2× on Freiburg 079); the same result
@@ -723,8 +725,16 @@ class FuzzyBRepMap:
 
     # -- memory (Table 5.3) --------------------------------------------------------------------
 
-    def memory(self, cells=(0.3, 0.2, 0.1)) -> list[MemoryRow]:
-        """Table 5.3 for this map: thesis accounting, compact encoding, occupancy grids per cell size."""
+    def memory(self, cells=None) -> list[MemoryRow]:
+        """Table 5.3 for this map: thesis accounting, compact encoding, occupancy grids per cell size
+        (in the map's unit; by default the thesis's 30, 20 and 10 cm)."""
+        if cells is None:
+            # cells of 0.3 taken in the map's own unit were 0.3 mm on a map in millimetres, the
+            # thesis's unit: grids of gigabytes, compared with nothing the thesis compares
+            try:
+                cells = THESIS_GRID_CELLS[self.unit]
+            except KeyError:
+                raise GeometryError(f"no default grid cells for unit {self.unit!r}: give the cell sizes") from None
         n = self.crisp.n_vertices
         rows = memory_table(n, n, float(self.crisp_geometry.area), cells, unit=self.unit)
         rows.insert(1, MemoryRow("fuzzy B-rep, compact (vertices to 1 mm as varint steps, edge kinds, Table 4.2)", None,
@@ -733,7 +743,7 @@ class FuzzyBRepMap:
         for c in cells:
             nc = _cell_count(x1 - x0, c, self.unit) * _cell_count(y1 - y0, c, self.unit)
             rows.append(MemoryRow(f"occupancy grid {c:g}×{c:g} {self.unit} over the bounding box "
-                                  f"({x1 - x0:.4g}×{y1 - y0:.4g} {self.unit})", nc, 4 * nc))
+                                  f"({x1 - x0:.6g}×{y1 - y0:.6g} {self.unit})", nc, 4 * nc))
         return rows
 
     # -- files ---------------------------------------------------------------------------------
@@ -906,6 +916,29 @@ def validate_map(crisp: BRepMap) -> None:
     for region in crisp.regions:
         region_names, k = names[k:k + len(region.rings)], k + len(region.rings)
         check_region(region, region_names)  # the rings are simple now
+    _check_disjoint(crisp)
+
+
+def _check_disjoint(crisp: BRepMap) -> None:
+    """GeometryError if two regions overlap. Each region is a piece of free space apart from the
+    others (meeting at points at most); overlapping ones were taken as they were, their common
+    area counted twice and the α-cuts and rasters of each drawn over the other's."""
+    if len(crisp.regions) < 2:
+        return
+    polys = np.array([region.to_shapely() for region in crisp.regions], dtype=object)
+    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
+    a, b = a[a < b], b[a < b]
+    inside = shapely.relate_pattern(polys[a], polys[b], "T********")  # interiors meet
+    if not inside.any():
+        return
+    i, j = int(a[inside][0]), int(b[inside][0])
+    names = ["principal" if k == 0 else f"piece {k + 1}" for k in range(len(polys))]
+    shell = crisp.regions[j].shell.vertices
+    within = np.flatnonzero(shapely.contains_xy(polys[i], shell[:, 0], shell[:, 1]))
+    x, y = (shell[within[0]] if within.size else
+            np.asarray(shapely.intersection(polys[i], polys[j]).representative_point().coords[0]))
+    raise GeometryError(f"overlaps {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free space",
+                        ring=names[j], vertex=int(within[0]) + 1 if within.size else None)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -4,7 +4,10 @@ A crisp map can come as a GeoJSON Polygon, MultiPolygon, Feature or FeatureColle
 in any unit (GeoJSON says nothing about it: the caller does). Every ring is checked and a bad
 one is refused naming the feature, polygon, ring and vertex as numbered in the file (1-based).
 Overlapping polygons are united; the result is a BRepMap (largest piece = principal polygon,
-shells counter-clockwise, holes clockwise).
+shells counter-clockwise, holes clockwise). A floor plan in the simulator's scheme (the demo's
+floorplan.geojson) reads as its free space: features with ``"role": "obstacle"`` are cut out,
+the route and glass lines carry no area and are passed over, and its top-level ``"unit"`` is
+the map's unit unless the caller says otherwise.
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ from .errors import GeometryError, MapFileError
 from .mapfile import loads_json
 from .scans.read import is_float
 
-def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
+def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
     """The crisp map in a GeoJSON file. MapFileError naming the file for anything wrong: unreadable,
-    wrong structure, or bad geometry (then also the feature, polygon, ring and vertex)."""
+    wrong structure, or bad geometry (then also the feature, polygon, ring and vertex). ``unit``
+    None: the file's top-level "unit", else metres."""
     path = Path(path)
     try:
         raw = path.read_text(encoding="utf-8")
@@ -41,20 +45,29 @@ def read_geojson(path: str | os.PathLike, unit: str = "m") -> BRepMap:
         raise MapFileError(path, str(e)) from None
 
 
-def crisp_from_geojson(obj, unit: str = "m") -> BRepMap:
+def crisp_from_geojson(obj, unit: str | None = None) -> BRepMap:
     """The crisp map in a parsed GeoJSON object (see ``read_geojson``)."""
-    polygons = [_polygon(coords, where) for coords, where in _polygon_coords(obj)]
-    if not polygons:
-        raise ValueError("no Polygon or MultiPolygon in the GeoJSON")
-    geom = polygons[0] if len(polygons) == 1 else shapely.union_all(polygons)
-    return BRepMap.from_shapely(geom, unit)
+    said = obj.get("unit") if isinstance(obj, dict) else None
+    if said is not None and unit is not None and said != unit:
+        raise ValueError(f"the file's unit is {said!r}, but {unit!r} was given")
+    items = list(_polygon_coords(obj))
+    free = [_polygon(coords, where) for coords, where, obstacle in items if not obstacle]
+    obstacles = [_polygon(coords, where) for coords, where, obstacle in items if obstacle]
+    if not free:
+        raise ValueError("no Polygon or MultiPolygon of free space in the GeoJSON")
+    geom = free[0] if len(free) == 1 else shapely.union_all(free)
+    if obstacles:  # before: united with the free space, a pillar mapped as floor
+        geom = geom.difference(shapely.union_all(obstacles))
+    return BRepMap.from_shapely(geom, unit or (said if isinstance(said, str) else None) or "m")
 
 
-def _polygon_coords(obj, where: str = ""):
-    """Yield (coordinates of one polygon, its name) from any GeoJSON object."""
+def _polygon_coords(obj, where: str = "", props: dict | None = None):
+    """Yield (coordinates of one polygon, its name, whether it is an obstacle) from any GeoJSON
+    object; ``props``: the properties of the feature it belongs to."""
     if not isinstance(obj, dict):
         raise ValueError(_at(where, f"expected a GeoJSON object, got {type(obj).__name__}"))
     kind = obj.get("type")
+    props = props or {}
     if kind == "FeatureCollection":
         feats = obj.get("features")
         if not isinstance(feats, list):
@@ -65,18 +78,22 @@ def _polygon_coords(obj, where: str = ""):
         g = obj.get("geometry")
         if g is None:
             return  # a feature without geometry carries nothing for the map
-        yield from _polygon_coords(g, where or "feature")
+        p = obj.get("properties")
+        yield from _polygon_coords(g, where or "feature", p if isinstance(p, dict) else {})
     elif kind == "GeometryCollection":
         for i, g in enumerate(obj.get("geometries") or []):
-            yield from _polygon_coords(g, f"{where + ' ' if where else ''}geometry {i + 1}")
+            yield from _polygon_coords(g, f"{where + ' ' if where else ''}geometry {i + 1}", props)
     elif kind == "Polygon":
-        yield obj.get("coordinates"), (where + " polygon").strip()
+        yield obj.get("coordinates"), (where + " polygon").strip(), props.get("role") == "obstacle"
     elif kind == "MultiPolygon":
         coords = obj.get("coordinates")
         if not isinstance(coords, list):
             raise ValueError(_at(where, "MultiPolygon coordinates must be a list"))
         for j, c in enumerate(coords):
-            yield c, f"{where + ' ' if where else ''}polygon {j + 1}"
+            yield c, f"{where + ' ' if where else ''}polygon {j + 1}", props.get("role") == "obstacle"
+    elif kind in ("LineString", "MultiLineString") and (props.get("role") in ("route", "glass")
+                                                         or props.get("material") == "glass"):
+        return  # a floor plan's route, or glass on its walls: no area, nothing for the map
     elif kind in ("Point", "MultiPoint", "LineString", "MultiLineString"):
         raise ValueError(_at(where, f"a {kind} has no area; a crisp map needs Polygon or MultiPolygon"))
     else:
@@ -145,7 +162,7 @@ def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
 
 def read_points(path: str | os.PathLike) -> np.ndarray:
     """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional; at
-    least one point."""
+    least one point. A header naming columns x and y says where they are (``id,x,y``)."""
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
@@ -154,19 +171,23 @@ def read_points(path: str | os.PathLike) -> np.ndarray:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
     pts = []
     first = True
+    ix, iy = 0, 1
     for line, row in enumerate(rows, 1):
         cells = [c.strip() for c in row]
         if not cells or not any(cells) or cells[0].startswith("#"):
             continue
         header, first = first, False
-        if len(cells) < 2:
+        if header and not any(is_float(c) for c in cells[:2]):  # a header line such as "x,y"
+            names = [c.lower() for c in cells]
+            if "x" in names and "y" in names:  # "id,x,y" or "y,x": read by name, not by place
+                ix, iy = names.index("x"), names.index("y")
+            continue
+        if len(cells) <= max(ix, iy):
             raise MapFileError(path, f"line {line}: expected x,y, got {','.join(cells)!r}")
         try:
-            x, y = float(cells[0]), float(cells[1])
+            x, y = float(cells[ix]), float(cells[iy])
         except ValueError:
-            if header and not any(is_float(c) for c in cells[:2]):
-                continue  # a header line such as "x,y"
-            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[0]!r}, {cells[1]!r}") from None
+            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[ix]!r}, {cells[iy]!r}") from None
         if not (math.isfinite(x) and math.isfinite(y)):
             raise MapFileError(path, f"line {line}: x,y must be finite")
         pts.append((x, y))

@@ -179,6 +179,9 @@ def check_writable(path: str | os.PathLike) -> None:
     """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
     points: a folder, below a file, or in a folder that cannot be written. A command that works
     for a long time before it writes checks first, so that the work is not lost at the end."""
+    if os.fspath(path).endswith(("/", os.sep)):
+        # Path() drops the slash: "--html out/" wrote a file named "out" where a folder was meant
+        raise MapFileError(path, "cannot write: the name ends with a slash, so it names a folder (give a file name)")
     path = Path(path)
     if path.is_dir():
         raise MapFileError(path, "cannot write: it is a folder (give a file name)")
@@ -198,9 +201,11 @@ def check_outputs(*paths: str | os.PathLike | None, inputs: tuple = ()) -> None:
     An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
     keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
     one output by another."""
-    given = [Path(p) for p in paths if p is not None]
+    given = [p for p in paths if p is not None]
+    for p in given:
+        check_writable(p)  # as given: a trailing slash says a folder was meant
+    given = [Path(p) for p in given]
     for k, p in enumerate(given):
-        check_writable(p)
         same = next((q for q in inputs if q is not None and _same_file(p, q)), None)
         if same is not None:
             raise MapFileError(p, f"cannot write: it is the input {same} as well, which writing would replace; "
@@ -256,11 +261,17 @@ def loads_json(raw: str | bytes):
 
 
 def read_map(path: str | os.PathLike) -> MapFile:
+    """A map file, or a compact map (``export --compact``): the same crisp map and Table 4.2,
+    without the scan poses."""
     path = Path(path)
     try:
         raw = path.read_bytes()
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    if raw[:4] == b"FBRC":  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
+        from .compact import read_compact  # compact builds on this module
+
+        return MapFile(*read_compact(path))
     try:
         d = loads_json(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

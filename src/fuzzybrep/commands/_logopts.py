@@ -40,6 +40,17 @@ def read_log(args) -> tuple[list, ReadReport]:
                                              f"{mr:g} if those ranges are real{hint}")
     return scans, report
 
+
+def read_notes(report: ReadReport) -> list[str]:
+    """What the reader chose for the user (a bag's topics and pose source, a laser frame taken to
+    sit on the odometry's frame) and what it skipped, one line each: they change the map, so
+    every command that reads a log shows them."""
+    lines = [f"note: {note}" for note in report.notes]
+    if report.skipped:
+        lines.append(f"skipped {report.skipped} bad line(s) or message(s); first: {report.errors[0]}")
+    return lines
+
+
 _DESTS = ("scan_topic", "odom_topic", "fixed_frame")
 
 

@@ -44,11 +44,18 @@ def tme_from_args(args: argparse.Namespace, required: bool = False) -> float | N
     return None
 
 
-def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bool = False) -> FuzzyBRepMap:
-    """fuzzify() with the options of ``add_mf_arguments``."""
+def mf_from_args(args: argparse.Namespace, tme_required: bool = False):
+    """(membership function, frontier function or None) of the options of ``add_mf_arguments``;
+    MembershipFunctionError for a bad spec or TME. ``build`` calls it before its work, so that a
+    typo is not found only once the map is built."""
     tme = tme_from_args(args, tme_required)
     mf = parse_spec(args.mf, tme)
-    frontier = parse_spec(args.frontier_mf, tme) if args.frontier_mf else None
+    return mf, parse_spec(args.frontier_mf, tme) if args.frontier_mf else None
+
+
+def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bool = False) -> FuzzyBRepMap:
+    """fuzzify() with the options of ``add_mf_arguments``."""
+    mf, frontier = mf_from_args(args, tme_required)
     return fuzzify(crisp, mf, frontier_mf=frontier)
 
 
@@ -72,21 +79,33 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
     return FuzzyBRepMap.from_mapfile(m, args.map, args.tme)
 
 
-def read_crisp(path: str | Path, unit: str) -> BRepMap:
-    """A crisp map from GeoJSON, or from a fuzzybrep map file (its crisp part)."""
+def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
+    """A crisp map from GeoJSON, or from a fuzzybrep map file or compact map (its crisp part)."""
     path = Path(path)
-    if path.suffix.lower() == ".json":
+    crisp = None
+    if _is_compact(path):
+        crisp = read_map(path).crisp
+    elif path.suffix.lower() == ".json":
         try:
             obj = loads_json(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
             crisp = from_json(obj, path).crisp
-            # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
-            # frontier index 2 would have no function in a new one-function table
-            return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
-    return read_geojson(path, unit)
+    if crisp is None:
+        return read_geojson(path, unit)
+    # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
+    # frontier index 2 would have no function in a new one-function table
+    return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
 
 
-__all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "read_crisp",
-           "tme_from_args"]
+def _is_compact(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"FBRC"
+    except OSError:
+        return False  # read_geojson says why it cannot be read
+
+
+__all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "mf_from_args",
+           "read_crisp", "tme_from_args"]

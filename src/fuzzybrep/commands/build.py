@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._logopts import add_log_arguments, read_log
-from ._maps import DEFAULT_TME_M, add_mf_arguments
+from ._logopts import add_log_arguments, read_log, read_notes
+from ._maps import DEFAULT_TME_M, add_mf_arguments, tme_from_args
 from ._types import non_negative, number, positive
 
 NAME = "build"
@@ -35,7 +35,7 @@ def add_arguments(p) -> None:
                    help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
     p.add_argument("--min-hole-area", type=non_negative, help="prune holes smaller than this (map unit², default from the config)")
-    p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default from the config)")
+    p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default TME/4)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M)
 
@@ -50,6 +50,9 @@ def config_from_args(args):
         polygon=replace(cfg.polygon, lines=replace(cfg.polygon.lines, method=args.lines, theta_step=args.theta_step)),
         evidence=replace(cfg.evidence, clear=not args.no_clear),
         use_evidence=not args.no_evidence,
+        # the uncertainty the map carries also sets its vertex reduction (TME/4), as in evaluate;
+        # before, --tme reached only the membership function
+        tme=tme_from_args(args),
     )
     if args.min_hole_area is not None:
         cfg = replace(cfg, min_hole_area=args.min_hole_area)
@@ -64,7 +67,7 @@ def run(args) -> int:
 
     from ..build import build_map
     from ..mapfile import check_outputs
-    from ._maps import fuzzify_from_args
+    from ._maps import fuzzify_from_args, mf_from_args
     from ..plot import check_figure_path, save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
@@ -73,12 +76,15 @@ def run(args) -> int:
     check_outputs(args.out, args.plot, inputs=(args.log,))  # before the work, not after it
     if args.plot:
         check_figure_path(args.plot)
+    if args.frontier_mf is None:
+        args.frontier_mf = args.mf  # frontier edges get their own FM index, same function until told otherwise
+    mf_from_args(args)  # before: a bad --mf or --tme was found only once the map was built
     t0 = time.perf_counter()
     scans, report = read_log(args)
     if args.consolidate:
         scans, report.consolidated = consolidate_pairs(scans)
-    if report.skipped:
-        console.print(f"[yellow]skipped {report.skipped} bad line(s)[/yellow]; first: {report.errors[0]}")
+    for line in read_notes(report):  # before: the bag's pose source was never shown, nor what was assumed
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
 
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=console, transient=True, disable=args.quiet or len(scans) < 200) as bar:
@@ -93,8 +99,6 @@ def run(args) -> int:
         "built_with": "fuzzybrep",
     }
     t_fuzzy = time.perf_counter()
-    if args.frontier_mf is None:
-        args.frontier_mf = args.mf  # frontier edges get their own FM index, same function until told otherwise
     fuzzy = fuzzify_from_args(result.crisp, args)
     result.timings["fuzzify"] = time.perf_counter() - t_fuzzy
     nbytes = fuzzy.save(args.out, poses=poses, metadata=meta)
@@ -109,6 +113,7 @@ def run(args) -> int:
         + f", {crisp.n_vertices} vertices, {crisp.n_holes} holes"
         + (f", {pieces} detached piece(s) kept" if pieces else "")
         + f", free area {crisp.area:.1f} {crisp.unit}², {nbytes} bytes -> {args.out}"
-        + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)"
+        + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)",
+        soft_wrap=True,  # one line to grep in a log: rich wraps at 80 columns where stderr is no terminal
     )
     return 0

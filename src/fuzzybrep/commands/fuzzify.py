@@ -13,7 +13,8 @@ HELP = "fuzzify a crisp map given as GeoJSON (Polygon/MultiPolygon with holes) i
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("crisp", metavar="CRISP.geojson", help="crisp map: GeoJSON, or a fuzzybrep map file")
-    p.add_argument("--unit", default="m", help="unit of the coordinates and of --tme (default m)")
+    p.add_argument("--unit", default=None,
+                   help="unit of the coordinates and of --tme (default: the file's \"unit\", else m)")
     p.add_argument("--out", required=True, metavar="MAP.json", help="fuzzy B-rep map file to write")
     add_mf_arguments(p)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._logopts import add_log_arguments, read_log
+from ._logopts import add_log_arguments, read_log, read_notes
 from ._types import file_name, non_negative, positive
 
 NAME = "grid"
@@ -53,7 +53,7 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
         raise ScanValueError(log, None, f"a grid at resolution {resolution:g} over these scans would have "
                                         f"{cell_count_text(nx)} × {cell_count_text(ny)} cells (limit {MAX_CELLS}): give a "
                                         f"coarser --resolution; the farthest out is {what} in {source}, {d:.3g} m from the "
-                                        f"median scan position (is its range or pose corrupt?)")
+                                        f"median scan position (is its range or pose corrupt, or the log not in metres?)")
 
 
 def run(args) -> int:
@@ -72,10 +72,8 @@ def run(args) -> int:
     yaml_path, pgm_path = write_grid(Path(args.out) / f"{args.name}.yaml", grid,
                                      comment=f"fuzzybrep grid {Path(args.log).name}, {args.resolution:g} m/pix")
     if not args.quiet:
-        for note in report.notes:
-            print(f"note: {note}")
-        if report.skipped:
-            print(f"skipped {report.skipped} bad line(s) or message(s); first: {report.errors[0]}")
+        for line in read_notes(report):
+            print(line)
         ny, nx = grid.shape
         print(f"{Path(args.log).name}: {len(scans)} scans -> {nx} x {ny} = {grid.cells} cells at {grid.resolution:g} m, "
               f"{grid.nbytes(4)} bytes at 4 B/cell ({pgm_path.stat().st_size} bytes of PGM), "

@@ -10,7 +10,7 @@
 - ``scan`` groups the rows of one scan (rows of a scan are consecutive); ``time`` is its timestamp
   in seconds; ``x, y, theta`` its sensor pose (theta in radians); ``bearing`` the beam angle in
   radians relative to theta, increasing within a scan; ``range`` the measured distance.
-- Coordinates and ranges share one unit (metres for robots, but any unit works).
+- Coordinates and ranges are in metres: the map builder's settings are metric (``BuildConfig``).
 - Lines starting with ``#`` are comments. ``# max_range: R`` declares the sensor's maximum: ranges
   at or above R mean "no return" (unknown, not an obstacle). Without it every range is a return.
 - The columns may come in any order; other columns are ignored. The file may be gzip-compressed.

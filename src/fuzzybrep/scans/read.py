@@ -56,7 +56,8 @@ def detect_format(path: str | os.PathLike) -> str:
     """'csv', 'rosbag' or 'carmen', from the name and the first bytes."""
     p = Path(path)
     name = p.name.lower()
-    if p.is_dir() or name.endswith((".bag", ".db3", ".mcap")):
+    # metadata.yaml: the file that makes a ROS 2 bag's folder a bag (`ros2 bag info` prints it)
+    if p.is_dir() or name.endswith((".bag", ".db3", ".mcap")) or name == "metadata.yaml":
         return "rosbag"
     if name.endswith((".csv", ".csv.gz")):
         return "csv"

@@ -150,7 +150,7 @@ def _bag_paths(path: Path) -> list[Path]:
         if not (path / "metadata.yaml").is_file():
             raise ScanFormatError(path, None, "a folder, but not a ROS 2 bag (no metadata.yaml in it)")
         return [path]
-    if path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
+    if (path.suffix in (".db3", ".mcap") or path.name == "metadata.yaml") and (path.parent / "metadata.yaml").is_file():
         return [path.parent]  # one file of a ROS 2 bag: read the whole bag, split files included
     return [path]
 
