@@ -485,7 +485,7 @@ def test_evaluate_with_a_grid_too_coarse_for_any_free_cell(tmp_path, capsys):
     assert cli.main(["evaluate", str(log), "--resolution", "1e300", "--json"]) == 0
     assert json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"{c} in the JSON"))["free_iou"] is None
     assert cli.main(["evaluate", str(log), "--resolution", "1e300"]) == 0
-    assert "free-space IoU with the 1e+300 grid: undefined (no free space in either at the cell centres)" in \
+    assert "free-space IoU with the 1e+300 m grid: undefined (no free space in either at the cell centres)" in \
         capsys.readouterr().out
 
 

@@ -188,7 +188,8 @@ def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     m = tmp_path / "crisp.json"
     write_map(m, MapFile(BRepMap.from_shapely(shapely.box(0, 0, 5, 5))))
     assert run("memory", m) == 2
-    assert "no membership-function table" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "no membership-function table" in err and "give its TME (--tme)" in err  # the option to use
     assert run("memory", m, "--tme", 0.2) == 0
     out = tmp_path / "fz.json"
     assert run("fuzzify", m, "--tme", 0.3, "--out", out) == 0  # a crisp map file is a valid input

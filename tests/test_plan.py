@@ -637,6 +637,21 @@ def test_cli_text_and_clearance_mode(room_file, capsys):
     assert lines[1] == "1 3" and lines[-1] == "9 3"
 
 
+def test_cli_text_lengths_in_mm_print_without_an_exponent(tmp_path, capsys):
+    # the thesis's unit: a path of over 10000 mm across a 10 x 6 m room (before, 4 digits:
+    # "length 1.087e+04 mm"); read back, the figures are the plan's to 6 digits
+    mm = BRepMap.from_shapely(shapely.affinity.scale(ROOM.difference(box(4, 2, 6, 4)), 1000, 1000, origin=(0, 0)),
+                              unit="mm")
+    fuzzify(mm, tme=200.0).save(tmp_path / "mm.json")
+    assert main(["plan", str(tmp_path / "mm.json"), "--start", "500", "500", "--goal", "9500", "5500"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    length, clearance = (float(head.split(k)[1].split()[0].rstrip(",")) for k in ("length ", "clearance "))
+    assert "e+" not in head and 10000 < length < 12000 and clearance >= 0
+    assert main(["plan", str(tmp_path / "mm.json"), "--start", "500", "500", "--goal", "9500", "5500", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert length == pytest.approx(out["length"], rel=1e-5) and clearance == pytest.approx(out["clearance"], rel=1e-5, abs=1e-9)
+
+
 @pytest.mark.parametrize("mode", ["shortest", "clearance"])
 def test_cli_text_path_read_back_stays_in_the_safe_region_far_from_the_origin(tmp_path, capsys, mode):
     # UTM-like coordinates: 6 significant digits were metres here, and the path read back

@@ -763,7 +763,7 @@ class FuzzyBRepMap:
         if not m.membership_functions:
             if tme is None:
                 raise MapFileError(path, "the map has no membership-function table (it is crisp): "
-                                         "fuzzify it first or give a TME")
+                                         "fuzzify it first (fuzzybrep fuzzify), or give its TME (--tme)")
             table = None
         else:
             try:

@@ -60,7 +60,7 @@ def run(args) -> int:
     print(f"  {pct(e.violations_rest)} of all endpoints are violations neither unseen nor come and gone: a kept scan "
           f"saw a return within TME (a better map could have avoided them, unless kept scans saw it go)")
     iou = "undefined (no free space in either at the cell centres)" if math.isnan(e.free_iou) else f"{e.free_iou:.3f}"
-    print(f"  free-space IoU with the {e.resolution:g} grid: {iou}")
+    print(f"  free-space IoU with the {e.resolution:g} m grid: {iou}")
     print(f"  bytes: fuzzy map {e.map_bytes_compact} compact ({e.map_bytes_thesis} as Table 5.3 counts) vs grid "
           f"{e.grid_bytes} ({e.grid_bytes / e.map_bytes_compact:.1f}x the compact map)")
     return 0

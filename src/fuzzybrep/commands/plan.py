@@ -55,8 +55,10 @@ def run(args: argparse.Namespace) -> int:
         out.write(json.dumps(result.to_json(), separators=(",", ":")) + "\n")
         return 0
     u = result.unit
-    out.write(f"{result.mode} path: length {result.length:.4g} {u}, {len(result.path)} points, "
-              f"clearance {result.clearance:.3g} {u} (α = {args.alpha:g}, radius {args.radius:g}, {args.method})\n")
+    # 6 significant digits: a map in mm (the thesis's unit) has lengths of 10000 and more, which 4
+    # would print as 1.087e+04
+    out.write(f"{result.mode} path: length {result.length:.6g} {u}, {len(result.path)} points, "
+              f"clearance {result.clearance:.6g} {u} (α = {args.alpha:g}, radius {args.radius:g}, {args.method})\n")
     if result.note:
         out.write(f"note: {result.note}\n")
     # rounded to an eighth of the tolerance the path was checked with: read back, it is still
