@@ -287,7 +287,8 @@ def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
         first = int(c_.min()) if len(c_) else 0
         c_ -= first
         span = int(c_.max()) + 1 if len(c_) else 0
-        counts = first, np.bincount(c_[newer], minlength=span).astype(np.int32), np.bincount(c_, minlength=span).astype(np.int32)
+        near, all_ = (np.bincount(x, minlength=span).astype(np.int32) for x in (c_[newer], c_))
+        counts = first, near, all_
         stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
         if len(stop) > cfg.cache * len(ray) / total:
             return counts, (lo, hi)
