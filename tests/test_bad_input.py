@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 
 import pytest
@@ -78,6 +79,16 @@ def edit(d, what):
         d["scans"]["poses"][0][2] = float("nan")
     elif what == "overlapping piece":
         d["regions"].append({"shell": {"x": [3, 6, 6, 3], "y": [3, 3, 6, 6], "kind": [0] * 4, "fm": [1] * 4}})
+    elif what == "pose of 3":
+        d["scans"]["poses"] = [[1, 1, 0]]
+    elif what == "x and y":
+        shell["y"] = shell["y"][:-1]
+    elif what == "no regions":
+        d["regions"] = []
+    elif what == "region":
+        d["regions"] = [5]
+    elif what == "format":
+        d["format"] = "geojson"
     return d
 
 
@@ -94,6 +105,11 @@ def edit(d, what):
     ("regions", "regions must be a list"),                            # before: "string indices must be integers"
     ("pose", "scans.poses row 1 is not finite"),                      # before: NaN written into the viewer's page
     ("overlapping piece", "piece 2, vertex 1: overlaps principal near (3, 3)"),  # before: read, area counted twice
+    ("pose of 3", "scans.poses must be rows of x, y, heading, time; got shape (1, 3)"),
+    ("x and y", "region 0 shell: x has 4 values, y has 3"),
+    ("no regions", "malformed map: no regions"),
+    ("region", "region 0 must be an object with a shell and holes, got int"),
+    ("format", "not a fuzzybrep map (format field is 'geojson')"),
 ])
 def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
     p = tmp_path / "m.json"
@@ -508,6 +524,21 @@ def test_tables_csv_checks_every_file_before_writing_any(tmp_path, capsys):
     (out / "edges_principal.csv").mkdir(parents=True)
     fails(capsys, ["tables", m, "--csv", out], "edges_principal.csv: cannot write: it is a folder")
     assert [p.name for p in out.iterdir()] == ["edges_principal.csv"]
+
+
+def test_map_file_that_is_not_utf8_is_not_valid_json(tmp_path, capsys):
+    p = tmp_path / "m.json"
+    p.write_bytes(b'{"format": "fuzzybrep-map\xff"}')
+    fails(capsys, ["memory", p], "m.json: not valid JSON")
+
+
+def test_an_output_that_is_a_hard_link_to_the_input_is_refused(tmp_path, capsys):
+    log = tmp_path / "a.log"
+    room_log(log)
+    before = log.read_bytes()
+    os.link(log, tmp_path / "b.log")  # another name for the same file
+    fails(capsys, ["build", log, "--out", tmp_path / "b.log", "--quiet"], "b.log: cannot write: it is the input")
+    assert log.read_bytes() == before
 
 
 def test_no_command_writes_over_its_own_input(tmp_path, capsys, monkeypatch):

@@ -14,6 +14,7 @@ from fuzzybrep import BRepMap, Region, Ring
 from fuzzybrep.cli import main
 from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
                               crisp_features, grey_levels, membership_raster, mu_from_grey, write_ros)
+from fuzzybrep.geojson import geometry_json
 from fuzzybrep.rosmap import RosMap, read_ros_map
 
 SVG = "{http://www.w3.org/2000/svg}"
@@ -197,6 +198,8 @@ def test_geojson_rings_follow_the_right_hand_rule(floor_file, tmp_path):
                 for polygon in [g["coordinates"]] if g["type"] == "Polygon" else g["coordinates"]:
                     ccw = [shapely.Polygon(ring).exterior.is_ccw for ring in polygon]
                     assert ccw[0] and not any(ccw[1:]), (method, command[0], f["properties"])
+    # an empty cut: no ring at all (RFC 7946, 3.1.6: a linear ring has four or more positions)
+    assert geometry_json(shapely.Polygon()) == {"type": "MultiPolygon", "coordinates": []}
     # a map file may list its rings either way round (Table 4.1 runs clockwise)
     clockwise = BRepMap((Region(Ring([(0, 0), (0, 4), (4, 4), (4, 0)]), (Ring([(1, 1), (2, 1), (2, 2)]),)),))
     ring, hole = crisp_features(clockwise)[0]["geometry"]["coordinates"]

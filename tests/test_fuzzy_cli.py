@@ -295,6 +295,8 @@ def test_a_floor_plan_in_the_simulators_scheme_reads_as_its_free_space(tmp_path,
      GeometryError, r"feature 2 polygon (outer ring|hole 1), vertex \d+: invalid polygon"),
     ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], ["a", 1], [0, 0]]]}, GeometryError,
      r"polygon outer ring, vertex 3: position \['a', 1\] is not \[x, y\] numbers"),
+    ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1], [0, 0]]]}, GeometryError,
+     r"polygon outer ring, vertex 3: position \[1\] is not \[x, y\]"),
     ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [0, 0]]]}, GeometryError, "at least 3 vertices"),
     ({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}, ValueError, "LineString has no area"),
     ({"type": "Circle"}, ValueError, "unknown GeoJSON type 'Circle'"),
@@ -315,6 +317,9 @@ def test_read_geojson_file_errors(tmp_path):
         read_geojson(p)
     with pytest.raises(MapFileError, match="cannot read"):
         read_geojson(tmp_path / "missing.geojson")
+    p.write_bytes(b'{"type": "Polygon\xff"}')
+    with pytest.raises(MapFileError, match="x.geojson: cannot read"):
+        read_geojson(p)
 
 
 def test_fuzzify_cli_names_the_bad_vertex(tmp_path, capsys):
@@ -345,4 +350,10 @@ def test_read_points(tmp_path):
     assert read_points(p).tolist() == [[1, 2]]
     p.write_text("id,x,y\n7,1\n")
     with pytest.raises(MapFileError, match="line 2: expected x,y, got '7,1'"):
+        read_points(p)
+    p.write_text("x,y\n1,2\nfoo,bar\n")  # a header is the first line only
+    with pytest.raises(MapFileError, match="p.csv: line 3: x,y must be numbers, got 'foo', 'bar'"):
+        read_points(p)
+    p.write_text("1,2\nnan,3\n")
+    with pytest.raises(MapFileError, match="p.csv: line 2: x,y must be finite"):
         read_points(p)

@@ -93,22 +93,21 @@ class Bag:
         return self.T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame, **kw)
 
     def write(self, topic, msgtype, msg, t):
-        if topic not in self.conns:
-            self.conns[topic] = self.w.add_connection(topic, msgtype, typestore=self.ts)
         data = self.ts.serialize_ros1(msg, msgtype) if self.ros1 else self.ts.serialize_cdr(msg, msgtype)
-        self.w.write(self.conns[topic], round(t * 1e9), data)
+        self.raw(t, topic, msgtype, data)
 
     def scan(self, t, ranges, topic="/scan", frame="laser", angle_min=ANGLE_MIN, inc=ANGLE_INC, range_max=8.0,
-             range_min=0.0):
-        msg = self.T[LASER](header=self.header(t, frame), angle_min=angle_min,
+             range_min=0.0, stamp=None):
+        """stamp: the header's, when it differs from the record time t."""
+        msg = self.T[LASER](header=self.header(t if stamp is None else stamp, frame), angle_min=angle_min,
                             angle_max=angle_min + (len(ranges) - 1) * inc, angle_increment=inc, time_increment=0.0,
                             scan_time=0.0, range_min=range_min, range_max=range_max,
                             ranges=np.asarray(ranges, np.float32), intensities=np.zeros(0, np.float32))
         self.write(topic, LASER, msg, t)
 
-    def odom(self, t, x, y, yaw, topic="/odom", frame="odom", child="base_link"):
+    def odom(self, t, x, y, yaw, topic="/odom", frame="odom", child="base_link", q=None):
         T = self.T
-        q = quat(yaw)
+        q = quat(yaw) if q is None else q
         pose = T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
                                            orientation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]))
         zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
@@ -126,6 +125,12 @@ class Bag:
             transform=T["geometry_msgs/msg/Transform"](translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.3),
                                                        rotation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])))
         self.write(TF_STATIC if static else TF, TFMSG, T[TFMSG](transforms=[tr]), t)
+
+    def raw(self, t, topic, msgtype, data: bytes):
+        """A message whose serialized bytes are given (damaged ones, say)."""
+        if topic not in self.conns:
+            self.conns[topic] = self.w.add_connection(topic, msgtype, typestore=self.ts)
+        self.w.write(self.conns[topic], round(t * 1e9), data)
 
     def close(self):
         self.w.close()
@@ -258,9 +263,10 @@ def test_clockwise_scan_is_turned_round(tmp_path):
     np.testing.assert_array_equal(s.ranges, [3.0, 2.0, 1.0])
 
 
-def test_ros2_storage_file_reads_its_whole_bag(tmp_path, scans, csv_scans):
-    path = bag_of(tmp_path / "r2", scans, ros1=False)
-    (db,) = path.glob("*.db3")
+@pytest.mark.parametrize("storage, ext", [("sqlite3", "db3"), ("mcap", "mcap")])
+def test_ros2_storage_file_reads_its_whole_bag(tmp_path, scans, csv_scans, storage, ext):
+    path = bag_of(tmp_path / "r2", scans, ros1=False, storage=storage)
+    (db,) = path.glob(f"*.{ext}")
     same_scans(read_scans(db), csv_scans)
     # and its metadata.yaml, what `ros2 bag info` shows (before: read as a CARMEN log, "no FLASER scans")
     same_scans(read_scans(path / "metadata.yaml"), csv_scans)
@@ -392,8 +398,10 @@ def test_unreadable_bag_files(tmp_path, scans, damage):
     data = path.read_bytes()
     bad = tmp_path / "bad.bag"
     bad.write_bytes({"truncate": data[: len(data) // 2], "garbage": b"not a bag at all\n" * 50, "empty": b""}[damage])
-    with pytest.raises(ScanFormatError, match="bad.bag: cannot read as a ROS bag"):
+    with pytest.raises(ScanFormatError, match="bad.bag: cannot read as a ROS bag") as e:
         read_rosbag(bad)
+    # a bag cut off while recording has no index: say how to repair it
+    assert ("`rosbag reindex` may repair it" in str(e.value)) == (damage == "truncate")
     assert cli.main(["build", str(bad), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
 
 
@@ -417,3 +425,227 @@ def test_bag_with_broken_metadata_is_one_line(tmp_path, scans, capsys):
     assert "\n" not in str(e.value)
     assert cli.main(["build", str(path), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+# ------------------------------------------------------------------------- poses: tf and odometry in detail
+
+
+def test_quaternions_that_are_not_unit_give_the_same_heading_and_zero_is_refused(tmp_path):
+    b = Bag(tmp_path / "q.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0, q=tuple(3.0 * c for c in quat(1.0)))  # a rotation, scaled
+    b.odom(2.0, 0.0, 0.0, 0.0, q=(0.0, 0.0, 0.0, 0.0))  # no rotation at all
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(BagMessageError, match=r"q.bag, topic /odom, message 1: quaternion \(0.0, 0.0, 0.0, 0.0\) has no "
+                                              r"rotation") as e:
+        read_rosbag(tmp_path / "q.bag")
+    assert (e.value.topic, e.value.index) == ("/odom", 1)
+    report = ReadReport()
+    (s,) = read_rosbag(tmp_path / "q.bag", skip_bad=True, report=report)
+    assert report.skipped == 1 and math.isclose(s.pose[2], 1.0, abs_tol=1e-12)
+
+
+def test_frame_turned_upside_down_mirrors_what_hangs_below_it(tmp_path):
+    """odom -> base_link (1, 2, 0) -> plate (rolled 180°: its y and z point the other way) -> laser at
+    (0, 0.2) in the plate, turned 0.3 rad about the plate's z (down). A beam at angle a reaching r
+    ends at plate (r cos(a + 0.3), 0.2 + r sin(a + 0.3)), which is base_link (x, -y)."""
+    b = Bag(tmp_path / "m.bag")
+    b.tf(1.0, "base_link", "plate", 0.0, 0.0, 0.0, roll=math.pi, static=True)
+    b.tf(1.0, "plate", "laser", 0.0, 0.2, 0.3, static=True)
+    b.tf(1.0, "odom", "base_link", 1.0, 2.0, 0.0)
+    r = np.array([1.0, 2.0, 3.0, 1.5, 2.5])
+    b.scan(1.0, r, angle_min=-0.5, inc=0.25)
+    b.close()
+    (s,) = read_rosbag(tmp_path / "m.bag")
+    a = -0.5 + 0.25 * np.arange(5) + 0.3
+    want = np.column_stack((1.0 + r * np.cos(a), 2.0 - (0.2 + r * np.sin(a))))
+    got = s.endpoints()[np.argsort(-s.bearings)]  # mirrored: the beams come out in the other order
+    np.testing.assert_allclose(got, want, atol=1e-6)
+
+
+def test_latest_static_transform_and_last_sample_of_a_stamp_are_in_force(tmp_path):
+    b = Bag(tmp_path / "s.bag")
+    b.tf(1.0, "base_link", "laser", 0.5, 0.0, 0.0, static=True)
+    b.tf(1.5, "base_link", "laser", 0.25, 0.0, 0.0, static=True)  # the laser was moved: this one holds
+    b.odom(2.0, 3.0, 0.0, 0.0)
+    b.odom(2.0, 4.0, 0.0, 0.0)  # the same stamp again: a correction, received last
+    b.scan(2.0, [1.0, 2.0])
+    b.close()
+    (s,) = read_rosbag(tmp_path / "s.bag")
+    assert s.pose.tolist() == [4.25, 0.0, 0.0]
+
+
+def test_odometry_and_static_tf_place_the_laser_together(tmp_path):
+    # tf knows only where the laser is mounted (static): the motion comes from odometry
+    b = Bag(tmp_path / "o.bag")
+    b.tf(1.0, "base_link", "laser", 0.5, 0.0, 0.0, static=True)
+    b.odom(1.0, 3.0, 1.0, math.pi / 2)
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    report = ReadReport()
+    (s,) = read_rosbag(tmp_path / "o.bag", report=report)
+    np.testing.assert_allclose(s.pose, [3.0, 1.5, math.pi / 2], atol=1e-12)
+    assert any("odometry /odom (odom -> base_link) and tf to laser" in n for n in report.notes)
+
+
+def test_frame_ids_with_a_leading_slash_and_a_stamp_of_zero(tmp_path):
+    # ROS 1 frame ids may start with "/"; a header stamp of zero means "not stamped": the record time
+    b = Bag(tmp_path / "z.bag")
+    b.tf(5.0, "/odom", "/base_link", 0.0, 0.0, 0.0)
+    b.tf(6.0, "odom", "base_link", 2.0, 0.0, 0.0)
+    b.tf(5.0, "base_link", "/laser", 0.0, 1.0, 0.0, static=True)
+    b.scan(5.5, [1.0, 2.0], frame="/laser", stamp=0.0)
+    b.close()
+    (s,) = read_rosbag(tmp_path / "z.bag")
+    assert s.timestamp == 5.5 and s.pose.tolist() == [1.0, 1.0, 0.0]
+
+
+def test_pose_tolerance_applies_before_the_first_pose_too(tmp_path):
+    b = Bag(tmp_path / "e.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.odom(2.0, 1.0, 0.0, 0.0)
+    b.scan(0.5, [1.0, 2.0])
+    b.scan(0.95, [1.0, 2.0])  # 50 ms early: within the 0.1 s tolerance, at the first pose
+    b.close()
+    with pytest.raises(BagMessageError, match=r"message 0: no pose at t = 0.500000 s"):
+        read_rosbag(tmp_path / "e.bag")
+    (s,) = read_rosbag(tmp_path / "e.bag", skip_bad=True)
+    assert math.isclose(s.timestamp, 0.95) and s.pose.tolist() == [0.0, 0.0, 0.0]
+
+
+def test_poses_in_a_fixed_frame_below_the_root(tmp_path):
+    b = Bag(tmp_path / "f.bag")
+    b.tf(1.0, "map", "odom", 10.0, 0.0, 0.0)
+    b.tf(1.0, "odom", "base_link", 1.0, 0.0, 0.0)
+    b.tf(1.0, "base_link", "laser", 0.0, 0.0, 0.0, static=True)
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    assert read_rosbag(tmp_path / "f.bag")[0].pose[0] == 11.0
+    assert read_rosbag(tmp_path / "f.bag", fixed_frame="odom")[0].pose[0] == 1.0
+
+
+def test_the_missing_transform_is_the_one_named(tmp_path):
+    # map -> odom is known only until 2 s; odom -> base_link until 10 s: at 5 s the first is missing
+    b = Bag(tmp_path / "g.bag")
+    b.tf(1.0, "base_link", "laser", 0.0, 0.0, 0.0, static=True)
+    for t in (1.0, 2.0):
+        b.tf(t, "map", "odom", 0.0, 0.0, 0.0)
+    for t in (1.0, 10.0):
+        b.tf(t, "odom", "base_link", t, 0.0, 0.0)
+    b.scan(5.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(BagMessageError, match=r"no pose at t = 5.000000 s: /tf map -> odom spans 1.000000 .. 2.000000 s"):
+        read_rosbag(tmp_path / "g.bag")
+
+
+# ------------------------------------------------------------------------- ranges and bearings
+
+
+def test_range_limits_are_inclusive_and_no_return_is_the_callers_maximum(tmp_path):
+    # LaserScan: values < range_min or > range_max are to be discarded; range_min and range_max
+    # themselves are measurements
+    b = Bag(tmp_path / "r.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.scan(1.0, [0.1, 8.0, 9.5, np.inf, 0.05, 2.0], range_min=0.1, range_max=8.0)
+    b.close()
+    (s,) = read_rosbag(tmp_path / "r.bag", max_range=10.0)
+    assert s.returns.tolist() == [True, True, False, False, False, True]
+    assert s.ranges[~s.returns].tolist() == [10.0] * 3  # no return: at the maximum in force
+
+
+def test_a_full_turn_with_both_ends_keeps_one_of_them(tmp_path):
+    b = Bag(tmp_path / "t.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0, 3.0, 4.0, 5.0], angle_min=-math.pi, inc=math.pi / 2)  # -180° .. +180°
+    b.close()
+    (s,) = read_rosbag(tmp_path / "t.bag")
+    assert s.ranges.tolist() == [1.0, 2.0, 3.0, 4.0] and s.full_circle
+
+
+@pytest.mark.parametrize("kw, field, words", [
+    (dict(ranges=[]), "ranges", "no ranges"),
+    (dict(ranges=[1.0, 2.0, 3.0], inc=0.0), "angle_increment", "angle_min -1.5707963705062866, angle_increment 0.0 give no bearings"),
+    (dict(ranges=[1.0, 2.0], range_max=np.inf), "range_max", "range_max is inf: give max_range (--max-range)"),
+])
+def test_laser_scans_that_cannot_be_read(tmp_path, kw, field, words):
+    b = Bag(tmp_path / "l.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.scan(1.0, **kw)
+    b.close()
+    with pytest.raises(BagMessageError) as e:
+        read_rosbag(tmp_path / "l.bag")
+    assert str(e.value) == f"{tmp_path / 'l.bag'}, topic /scan, message 1, field {field}: {words}"
+    report = ReadReport()
+    assert len(read_rosbag(tmp_path / "l.bag", skip_bad=True, report=report)) == 1 and report.skipped == 1
+
+
+def test_undecodable_message_and_impossible_pose_are_named_or_skipped(tmp_path):
+    b = Bag(tmp_path / "d.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.odom(2.0, 1.0, 0.0, 0.0)
+    b.odom(3.0, float("nan"), 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.raw(1.5, "/scan", LASER, b"\x01\x02\x03")
+    b.scan(2.5, [1.0, 2.0])  # between a pose and a NaN one
+    b.close()
+    with pytest.raises(BagMessageError, match=r"topic /scan, message 1: cannot decode sensor_msgs/msg/LaserScan"):
+        read_rosbag(tmp_path / "d.bag")
+    report = ReadReport()
+    (s,) = read_rosbag(tmp_path / "d.bag", skip_bad=True, report=report)
+    assert s.timestamp == 1.0 and report.skipped == 2
+    assert report.errors[1].topic == "/scan" and report.errors[1].index == 2
+    assert "pose is not finite" in str(report.errors[1])
+
+
+# ------------------------------------------------------------------------- bad options and trees
+
+
+def test_bad_max_range_and_odometry_topic(tmp_path):
+    b = Bag(tmp_path / "o.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="max_range must be positive"):
+            read_rosbag(tmp_path / "o.bag", max_range=bad)
+    with pytest.raises(ScanFormatError, match=r"no topic '/odm' in this bag \(nav_msgs/Odometry topics: /odom\)"):
+        read_rosbag(tmp_path / "o.bag", odom_topic="/odm")
+
+
+def test_odometry_that_cannot_place_the_laser(tmp_path):
+    b = Bag(tmp_path / "mix.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0, child="base_link")
+    b.odom(2.0, 0.0, 0.0, 0.0, child="base_footprint")
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(ScanFormatError, match=r"odometry topic /odom mixes frames \[\('odom', 'base_footprint'\), "
+                                              r"\('odom', 'base_link'\)\]"):
+        read_rosbag(tmp_path / "mix.bag")
+    b = Bag(tmp_path / "none.bag")
+    b.odom(1.0, 0.0, 0.0, 0.0, q=(0.0, 0.0, 0.0, 0.0))
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(ScanFormatError, match="no usable message on odometry topic /odom"):
+        read_rosbag(tmp_path / "none.bag", skip_bad=True)
+    b = Bag(tmp_path / "apart.bag")
+    b.tf(1.0, "mount", "laser", 0.5, 0.0, 0.0, static=True)  # tf knows the laser, but not on base_link
+    b.odom(1.0, 0.0, 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(ScanFormatError, match="laser frame 'laser' is not connected to odometry's frame 'base_link' in tf"):
+        read_rosbag(tmp_path / "apart.bag")
+
+
+@pytest.mark.parametrize("edges, words", [
+    ([("odom", "base_link"), ("map", "base_link")], "tf frame 'base_link' has two parents: 'odom' and 'map'"),
+    ([("a", "b"), ("b", "a"), ("b", "laser")], "tf has a loop through frame 'b'"),
+])
+def test_tf_trees_that_are_not_trees(tmp_path, edges, words):
+    b = Bag(tmp_path / "t.bag")
+    for parent, child in edges:
+        b.tf(1.0, parent, child, 0.0, 0.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.close()
+    with pytest.raises(ScanFormatError, match=words):
+        read_rosbag(tmp_path / "t.bag")

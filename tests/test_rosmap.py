@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -50,6 +52,13 @@ def test_yaml_is_standard_yaml_with_the_right_types(tmp_path):
     assert d == {"image": "m.pgm", "mode": "trinary", "resolution": 0.05, "origin": [-10.0, 1e-05, 0.0],
                  "negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196}
     assert parse_map_yaml(text) == d
+    # ROS 1 map_server and PyYAML read YAML 1.1, where a float needs a dot in its mantissa
+    # (yaml.org/type/float.html): "1e-05" would be a string there
+    yaml11_float = re.compile(r"[-+]?([0-9][0-9_]*)?\.[0-9.]*([eE][-+][0-9]+)?")
+    for key in ("resolution", "origin", "occupied_thresh", "free_thresh"):
+        value = next(line for line in text.splitlines() if line.startswith(key + ":")).split(":", 1)[1]
+        for v in value.strip(" []").split(","):
+            assert yaml11_float.fullmatch(v.strip()), (key, v)
 
 
 def test_grid_image_is_trinary_and_upside_down():
@@ -85,6 +94,42 @@ def test_map_server_reads_pixels_as_it_documents(tmp_path):
     assert occ[0, 0] == 100 and occ[0, 1] == 0 and 1 <= occ[0, 2] <= 99 and occ[0, 4] > occ[0, 2]
     raw = read_ros_map(write_ros_map(tmp_path / "r.yaml", img, 1.0, (0, 0), mode="raw")[0])
     np.testing.assert_array_equal(raw.occupancy(), [[0, -1, -1, -1, 100, -1]])
+    # in every mode the published grid starts with the bottom row, the image with the top one
+    raw = read_ros_map(write_ros_map(tmp_path / "r2.yaml", np.array([[7], [50]], np.uint8), 1.0, (0, 0), mode="raw")[0])
+    np.testing.assert_array_equal(raw.occupancy(), [[50], [7]])
+
+
+def test_thresholds_are_strict_and_scale_grades_between_them(tmp_path):
+    """map_server: p > occupied_thresh is occupied, p < free_thresh free, anything else unknown; in
+    scale mode the in-between cells get 1 + 98 (p - free) / (occ - free), truncated (ROS 1 map_server)."""
+    img = np.array([[51, 204, 128, 0, 255]], np.uint8)  # p = 0.8, 0.2, 0.498, 1, 0
+    y, _ = write_ros_map(tmp_path / "t.yaml", img, 1.0, (0, 0), occupied_thresh=0.8, free_thresh=0.2)
+    np.testing.assert_array_equal(read_ros_map(y).occupancy(), [[-1, -1, -1, 100, 0]])
+    y, _ = write_ros_map(tmp_path / "s.yaml", img, 1.0, (0, 0), occupied_thresh=0.8, free_thresh=0.2, mode="scale")
+    m = read_ros_map(y)
+    ratio = (m.probability()[0, :3] - 0.2) / (0.8 - 0.2)
+    assert m.occupancy()[0].tolist() == [int(1 + 98 * r) for r in ratio] + [100, 0] == [99, 1, 49, 100, 0]
+
+
+def test_a_map_without_mode_is_trinary(tmp_path):
+    m = read_ros_map(put(tmp_path, pgm=bytes(b"P5\n3 1\n255\n") + bytes([100, 180, 254])))
+    assert m.mode == "trinary" and m.occupancy().tolist() == [[-1, -1, 0]]
+
+
+def test_the_image_is_written_before_the_yaml_that_names_it(tmp_path, monkeypatch):
+    import fuzzybrep.rosmap as rosmap
+
+    write_atomic = rosmap.write_atomic
+
+    def image_fails(path, data):
+        if str(path).endswith(".pgm"):
+            raise MapFileError(path, "cannot write: No space left on device")
+        return write_atomic(path, data)
+
+    monkeypatch.setattr(rosmap, "write_atomic", image_fails)
+    with pytest.raises(MapFileError, match="m.pgm: cannot write"):
+        write_ros_map(tmp_path / "m.yaml", np.zeros((2, 2), np.uint8), 0.05, (0.0, 0.0))
+    assert list(tmp_path.iterdir()) == []  # no YAML naming an image that is not there
 
 
 # ------------------------------------------------------------------------- PGM variants
@@ -112,6 +157,16 @@ def test_binary_p5_with_comments_and_16_bit(tmp_path):
     # a raster byte that looks like whitespace is still a pixel
     (tmp_path / "c.pgm").write_bytes(b"P5\n2 1\n255\n\n ")
     assert read_pgm(tmp_path / "c.pgm")[0].tolist() == [[10, 32]]
+    # Netpbm: 2 bytes a sample when maxval is 256 or more
+    (tmp_path / "d.pgm").write_bytes(b"P5\n2 1\n256\n" + np.array([256, 1], ">u2").tobytes())
+    img, maxval = read_pgm(tmp_path / "d.pgm")
+    assert maxval == 256 and img.tolist() == [[256, 1]]
+
+
+@pytest.mark.parametrize("data", [b"P5\n2 1\n255\n\x00\xfe\nP5\n1 1\n255\n\x07", b"P2\n2 1\n255\n0 254\nP2\n1 1\n255\n7\n"])
+def test_a_pgm_file_of_several_images_gives_the_first(tmp_path, data):
+    (tmp_path / "m.pgm").write_bytes(data)  # Netpbm allows images one after another in a file
+    assert read_pgm(tmp_path / "m.pgm")[0].tolist() == [[0, 254]]
 
 
 def test_pgm_writer_refuses_what_is_not_8_bit_grey():
@@ -131,6 +186,7 @@ def test_pgm_writer_refuses_what_is_not_8_bit_grey():
     (b"P5\n2 x\n255\n", "integers"),
     (b"P5\n0 2\n255\n", "size 0 x 2"),
     (b"P5\n2 2\n70000\n" + bytes(8), "maxval 70000"),
+    (b"P5\n1 1\n0\n" + bytes(1), "maxval 0 must be 1..65535"),
     (b"P5\n4 4\n255\n" + bytes(10), "truncated PGM: 4 x 4 pixels need 16 bytes, 10 present"),
     (b"P5\n2 2\n255\n" + bytes(9), "image size mismatch"),
     (b"P2\n2 2\n255\n1 2 3\n", "truncated PGM"),
@@ -153,6 +209,11 @@ def test_bad_pgm_names_file_and_fault(tmp_path, data, match):
     (YAML.replace("[-1.5, 2.25, 0.0]", "[-1.5, 2.25, 0.0"), "not closed"),
     (YAML.replace("0.05", "-0.05"), "resolution must be positive"),
     (YAML.replace("0.05", "fast"), "resolution must be a number"),
+    (YAML.replace("0.05", "0"), "resolution must be positive, got 0.0"),
+    (YAML.replace("0.05", "true"), "resolution must be a number, got True"),
+    (YAML.replace("[-1.5, 2.25, 0.0]", "[-1.5, 2.25, 0.0, 1.0]"), "origin must be a list \\[x, y, yaw\\]"),
+    (YAML.replace("occupied_thresh: 0.65", "occupied_thresh: 65"), "free_thresh \\(0.196\\) < occupied_thresh \\(65.0\\) <= 1"),
+    (YAML.replace("image: m.pgm", "image: 5"), "image must be a file name, got 5"),
     (YAML.replace("negate: 0", "negate: 2"), "negate must be 0 or 1"),
     (YAML.replace("free_thresh: 0.196", "free_thresh: 0.9"), "free_thresh \\(0.9\\) < occupied_thresh"),
     (YAML + "mode: fuzzy\n", "mode 'fuzzy'"),
@@ -175,7 +236,8 @@ def test_missing_yaml_file(tmp_path):
 
 
 def test_yaml_parser_reads_what_map_server_accepts():
-    text = """# a map
+    text = """---
+# a map
 image: "my map.pgm"   # quoted, with a space
 resolution: 5.0e-2
 origin:
@@ -189,6 +251,8 @@ free_thresh: 0.196
     d = parse_map_yaml(text)
     assert d == {"image": "my map.pgm", "resolution": 0.05, "origin": [-1, 2.5, 0], "negate": False,
                  "occupied_thresh": 0.65, "free_thresh": 0.196}
+    # YAML: "#" starts a comment only at the start or after a space
+    assert parse_map_yaml("image: map#2.pgm  # the second\n") == {"image": "map#2.pgm"}
 
 
 def test_absolute_image_path_and_writer_checks(tmp_path):
@@ -205,6 +269,9 @@ def test_absolute_image_path_and_writer_checks(tmp_path):
         write_ros_map(tmp_path / "w.yaml", img, 0.05, (0.0, 0.0), mode="fuzzy")
     with pytest.raises(MapFileError, match="uint8"):
         write_ros_map(tmp_path / "w.yaml", img.astype(float), 0.05, (0.0, 0.0))
+    for occ, free in [(0.5, 0.6), (1.5, 0.2), (0.65, -0.1)]:
+        with pytest.raises(MapFileError, match="need 0 <= free_thresh"):
+            write_ros_map(tmp_path / "w.yaml", img, 0.05, (0.0, 0.0), occupied_thresh=occ, free_thresh=free)
     assert not (tmp_path / "w.yaml").exists() and not (tmp_path / "w.pgm").exists()
 
 
