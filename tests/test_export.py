@@ -11,6 +11,7 @@ import shapely
 
 from _floor import TME, floor_map, floor_poses
 from fuzzybrep import BRepMap, Region, Ring
+from fuzzybrep.brep import FRONTIER
 from fuzzybrep.cli import main
 from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
                               crisp_features, grey_levels, membership_raster, mu_from_grey, write_ros)
@@ -55,6 +56,8 @@ def test_every_grey_level_keeps_its_class_in_map_server_trinary_mode():
     np.testing.assert_allclose(mu_from_grey(free), mu, atol=0.5 / FREE_STEPS + 1e-12)
     np.testing.assert_allclose(mu_from_grey(occupied), mu, atol=0.5 / OCCUPIED_STEPS + 1e-12)
     assert np.isnan(mu_from_grey(unknown)).all()
+    # 255 (white, as an editor paints free space) is free deep inside: μ 0, never below
+    assert mu_from_grey(np.array([255, 254])).tolist() == [0.0, 0.0]
 
 
 def test_raster_classes_and_membership_on_the_floor(floor):
@@ -231,6 +234,14 @@ def test_svg_is_valid_xml_in_map_units_with_y_flipped(floor, floor_file, tmp_pat
              for ring in d.lstrip("M").split("M")]
     poly = shapely.Polygon(rings[0] * [1, -1], [r * [1, -1] for r in rings[1:]])
     assert poly.area == pytest.approx(floor.crisp_geometry.area, rel=1e-4)
+    assert poly.symmetric_difference(floor.crisp_geometry).area < 1e-3 * poly.area  # the map, not its mirror image
+    # the frontier strokes are the crisp map's frontier edges
+    strokes = [np.array([[float(v) for v in pt.split()] for pt in s.split("L")]) * [1, -1]
+               for s in groups["crisp"][1].get("d").lstrip("M").split("M")]
+    frontier = [r.vertices[[i, (i + 1) % len(r)]] for r in floor.crisp.rings for i in np.flatnonzero(r.kinds == FRONTIER)]
+    assert len(strokes) == len(frontier)
+    for s, f in zip(strokes, frontier):
+        np.testing.assert_allclose(s, f, atol=5e-4)
     assert "matplotlib" not in out.read_text()
 
 

@@ -26,6 +26,7 @@ from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, Point
 from fuzzybrep import plan as plan_module
 from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
 from fuzzybrep.plan import RADIUS_FACTOR, free_points, plan, planner, safe_region
+from fuzzybrep.medial import MedialAxis
 from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
 
 TOL = 1e-7
@@ -595,6 +596,37 @@ def test_walks_agree_with_geos_on_a_cluttered_room():
         through[k] = ((np.abs(cross) <= 1e-9 * (d[k] @ d[k])) & (t > 1e-12) & (t < 1 - 1e-12)).any()
     assert (~seen & covered <= through).all()
     assert seen.sum() > 100
+
+
+def test_walks_follow_the_documented_conventions():
+    """The region is closed: a segment to a point of the boundary is inside. A segment through a
+    vertex other than its ends is blocked, even along a straight wall (module docstring)."""
+    tri = Triangulation.of(shapely.Polygon([(0, 0), (4, 0), (0, 4)]))
+    o = tri.vertex_index(np.array([[0.0, 0.0]]))
+    assert tri.visible(o, np.array([[2.0, 2.0]])).tolist() == [True]  # the middle of the far edge
+    wall = shapely.Polygon([(0, 0), (2, 0), (4, 0), (4, 4), (0, 4)])  # a flat vertex at (2, 0)
+    tri = Triangulation.of(wall)
+    o = tri.vertex_index(np.array([[0.0, 0.0], [0.0, 0.0]]))
+    far = np.array([[4.0, 0.0], [3.0, 0.0]])
+    assert tri.visible(o, far, tri.vertex_index(far)).tolist() == [False, False]
+    assert tri.visible(tri.vertex_index(np.array([[2.0, 0.0]])), np.array([[4.0, 0.0]])).tolist() == [True]
+
+
+def test_corners_keep_flat_vertices_and_tangents_along_an_edge():
+    """Flat vertices are corners, so a path may run along a straight wall of several edges; a line
+    along one of a corner's edges is tangent there (it leaves both edges on one side)."""
+    assert Corners.of(shapely.Polygon([(0, 0), (2, 0), (4, 0), (4, 4), (0, 4)])).xy.tolist() == [[2.0, 0.0]]
+    corners = Corners.of(shapely.Polygon([(0, 0), (4, 0), (4, 2), (2, 2), (2, 4), (0, 4)]))  # reflex at (2, 2)
+    assert corners.xy.tolist() == [[2.0, 2.0]]
+    along, across = np.array([[3.0, 2.0]]), np.array([[3.0, 3.0]])
+    assert corners.tangent(np.array([0]), along).tolist() == [True]
+    assert corners.tangent(np.array([0]), across).tolist() == [False]
+
+
+def test_medial_axis_refuses_a_spacing_that_is_not_positive():
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="spacing must be positive"):
+            MedialAxis.of(box(0, 0, 4, 2), bad)
 
 
 def test_visibility_graph_edges_are_inside_and_tangent():

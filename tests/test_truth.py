@@ -9,7 +9,7 @@ import pytest
 import shapely
 
 from fuzzybrep.simulate import World
-from fuzzybrep.truth import fraction_inside, fraction_within, hausdorff, length_inside, score, seen_walls
+from fuzzybrep.truth import _merge_intervals, fraction_inside, fraction_within, hausdorff, length_inside, score, seen_walls
 
 # a 2 m wide, 0.1 m thick block 2 m in front of a robot at the origin facing +y; the room's own
 # walls are 20 m away, beyond the laser's 8 m
@@ -80,6 +80,14 @@ def test_hausdorff_finds_the_farthest_point_between_vertices():
     offset = shapely.LineString([(0, 0.3), (10, 0.3)])
     assert hausdorff(a, offset) == pytest.approx(0.3)
     assert hausdorff(a, shapely.LineString([(0, 0), (1, 0)])) == pytest.approx(9.0)
+    # symmetric: the farthest point of either from the other
+    assert hausdorff(shapely.LineString([(0, 0), (1, 0)]), a) == pytest.approx(9.0)
+
+
+def test_pieces_of_wall_seen_apart_stay_apart():
+    # on segment 3, [0, 0.3] and [0.2, 0.4] overlap: one piece; [0.6, 0.8] lies apart; segment 5 is its own
+    ids, lo, hi = _merge_intervals(np.array([3, 5, 3, 3]), np.array([0.2, 0.1, 0.0, 0.6]), np.array([0.4, 0.2, 0.3, 0.8]))
+    assert ids.tolist() == [3, 3, 5] and lo.tolist() == [0.0, 0.6, 0.1] and hi.tolist() == [0.4, 0.8, 0.2]
 
 
 def test_score_perfect_and_shifted_maps():
