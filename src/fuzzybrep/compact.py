@@ -285,6 +285,11 @@ def read_compact(path: str | os.PathLike) -> tuple[BRepMap, list[dict]]:
         data = open(path, "rb").read()
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    return compact_from_bytes(data, path)
+
+
+def compact_from_bytes(data: bytes, path: str | os.PathLike) -> tuple[BRepMap, list[dict]]:
+    """``read_compact`` of a file's bytes already read; MapFileError names ``path``."""
     try:
         crisp, mfs = decode(data)
     except (ValueError, IndexError, json.JSONDecodeError, UnicodeDecodeError) as e:

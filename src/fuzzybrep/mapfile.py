@@ -268,10 +268,10 @@ def read_map(path: str | os.PathLike) -> MapFile:
         raw = path.read_bytes()
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
-    if raw[:4] == b"FBRC":  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
-        from .compact import read_compact  # compact builds on this module
+    from .compact import MAGIC, compact_from_bytes  # here: compact builds on this module
 
-        return MapFile(*read_compact(path))
+    if raw.startswith(MAGIC):  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
+        return MapFile(*compact_from_bytes(raw, path))
     try:
         d = loads_json(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

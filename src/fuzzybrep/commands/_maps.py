@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from ..brep import BRepMap, Ring
+from ..compact import MAGIC
 from ..errors import MapFileError, MembershipFunctionError
 from ..fuzzy import FuzzyBRepMap, fuzzify
 from ..geojson import read_geojson
@@ -102,7 +103,7 @@ def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
 def _is_compact(path: Path) -> bool:
     try:
         with open(path, "rb") as f:
-            return f.read(4) == b"FBRC"
+            return f.read(len(MAGIC)) == MAGIC
     except OSError:
         return False  # read_geojson says why it cannot be read
 
