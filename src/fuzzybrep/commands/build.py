@@ -67,7 +67,8 @@ def run(args) -> int:
 
     from ..build import build_map
     from ..mapfile import check_outputs
-    from ._maps import fuzzify_from_args, mf_from_args
+    from ..fuzzy import fuzzify
+    from ._maps import mf_from_args
     from ..plot import check_figure_path, save_map_figure
     from ..scans.consolidate import consolidate_pairs
 
@@ -78,7 +79,7 @@ def run(args) -> int:
         check_figure_path(args.plot)
     if args.frontier_mf is None:
         args.frontier_mf = args.mf  # frontier edges get their own FM index, same function until told otherwise
-    mf_from_args(args)  # before: a bad --mf or --tme was found only once the map was built
+    mf, frontier_mf = mf_from_args(args)  # before: a bad --mf or --tme was found only once the map was built
     t0 = time.perf_counter()
     scans, report = read_log(args)
     if args.consolidate:
@@ -99,7 +100,7 @@ def run(args) -> int:
         "built_with": "fuzzybrep",
     }
     t_fuzzy = time.perf_counter()
-    fuzzy = fuzzify_from_args(result.crisp, args)
+    fuzzy = fuzzify(result.crisp, mf, frontier_mf=frontier_mf)
     result.timings["fuzzify"] = time.perf_counter() - t_fuzzy
     nbytes = fuzzy.save(args.out, poses=poses, metadata=meta)
     if args.plot:
