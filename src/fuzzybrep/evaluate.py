@@ -293,10 +293,10 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
     before, after = seen_free(pts[viol], times[viol], kept, free, tme)
     came_and_went = before & after
-    rest = float((~unseen & ~came_and_went).sum() / len(pts))
-    unseen, came_and_went = float(unseen.sum() / len(pts)), float(came_and_went.sum() / len(pts))
+    share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
-    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, unseen, came_and_went, rest, scores["sweep"], iou, compact_bytes(fz), thesis,
+    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(came_and_went),
+                      share(~unseen & ~came_and_went), scores["sweep"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)
