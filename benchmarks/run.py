@@ -95,10 +95,15 @@ def naive_union(scans):
     return time.perf_counter() - t, u
 
 
-def all_scan_truthfulness(scans, crisp) -> tuple[float, float]:
-    """Issue 2: endpoints under 5 m inside the free space shrunk by 0.2 m / outside it grown by 0.2 m."""
-    s = E.score(E.endpoints(scans), *E.band_by_buffer(crisp.to_shapely(), 0.2))
-    return s.violations, s.beyond
+def all_scan_truthfulness(scans, crisp, cfg) -> tuple[float, float, float]:
+    """Issue 2: endpoints under 5 m inside the free space shrunk by 0.2 m / outside it grown by 0.2 m;
+    and the share of all endpoints inside that came and went (seen free by other scans of the log
+    both before and after): obstacles that issue 5 asks the map to drop, so the floor under any
+    held-out violation rate of a map that follows it."""
+    pts = E.endpoints(scans)
+    s = E.score(pts, *E.band_by_buffer(crisp.to_shapely(), 0.2))
+    went = E.came_and_went(pts[s.violated], E.endpoint_times(scans)[s.violated], scans, cfg, 0.2)
+    return s.violations, s.beyond, float(went.sum() / len(pts))
 
 
 def bench_log(name: str, path: Path, repeat: int) -> dict:
@@ -115,7 +120,7 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
     naive_inside = E.score(E.endpoints(scans), *E.band_by_buffer(naive[0][1], 0.2)).violations
     t_grid, grid = median_time(lambda: occupancy_grid(scans, 0.05), repeat)
     crisp = r.crisp
-    inside, outside = all_scan_truthfulness(scans, crisp)
+    inside, outside, went = all_scan_truthfulness(scans, crisp, cfg)
     print(f"[{name}] held-out evaluation", file=sys.stderr, flush=True)
     ev = E.evaluate_log(scans, 2, cfg)
     iou_all = E.free_space_iou(crisp.to_shapely(), grid)
@@ -134,7 +139,7 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
         "naive_union_seconds": t_naive, "grid_seconds": t_grid,
         "vertices": crisp.n_vertices, "holes": crisp.n_holes, "pieces": len(crisp.regions) - 1,
         "area": crisp.area, "memory": mem,
-        "all_scans": {"inside_shrunk": inside, "outside_grown": outside, "free_iou": iou_all,
+        "all_scans": {"inside_shrunk": inside, "inside_came_and_went": went, "outside_grown": outside, "free_iou": iou_all,
                       "naive_union_inside_shrunk": naive_inside},
         "held_out": ev.as_dict(), "peak_memory": peaks,
     }
@@ -222,12 +227,17 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
           "held once the log was read: what a robot needs free to build the map on board)", "",
           peak.markdown([(r["log"], r["peak_memory"]) for r in results]).rstrip("\n")]
     L += ["", "**Truthful free space, all scans** (endpoints closer than 5 m)", "",
-          "| log | inside the free space shrunk by 0.2 m | outside it grown by 0.2 m | free-space IoU with the 5 cm grid | the same, inside a plain union of raw scan fans |",
-          "|---|---:|---:|---:|---:|"]
+          "| log | inside the free space shrunk by 0.2 m | … of which came and went | outside it grown by 0.2 m | free-space IoU with the 5 cm grid | the same, inside a plain union of raw scan fans |",
+          "|---|---:|---:|---:|---:|---:|"]
     for r in results:
         a = r["all_scans"]
-        L.append(f"| {r['log']} | {pct(a['inside_shrunk'])} | {pct(a['outside_grown'])} | {a['free_iou']:.3f} | "
-                 f"{pct(a['naive_union_inside_shrunk'])} |")
+        L.append(f"| {r['log']} | {pct(a['inside_shrunk'])} | {pct(a['inside_came_and_went'])} | "
+                 f"{pct(a['outside_grown'])} | {a['free_iou']:.3f} | {pct(a['naive_union_inside_shrunk'])} |")
+    L += ["", "Came and went: beams of other scans of the log passed more than 0.2 m beyond the endpoint both "
+          "before and after its own scan saw it (people walking, doors). The map drops such obstacles, as "
+          "issue 5 asks, so they stay inside its free space although the map saw them. Held-out scans see "
+          "such things too, and each is a violation there: a map that drops them cannot be expected to score "
+          "much fewer held-out violations than this column."]
     L += ["", "**Held-out scans** (map from all scans but every second; the held-out endpoints closer than 5 m "
           "judged against the map's support at α = 0 with TME = 0.19913 m)", "",
           "| log | explained | violations | … of which on small isolated objects | … of which no kept scan saw within TME | … of which came and went | … of which neither | beyond | sweep band: explained | sweep band: violations | free-space IoU |",

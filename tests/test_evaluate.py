@@ -124,6 +124,32 @@ def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     assert e.violations_rest == pytest.approx(e.exact.violations - e.violations_came_and_went)
 
 
+def test_a_person_the_map_saw_pass_by_stays_a_violation_of_its_own_scans():
+    # the floor under held-out violations: the map from all scans drops a person whom later and
+    # earlier scans saw through, so the person's own endpoints lie in its free space, and they
+    # came and went; the scan that saw the person is neither before nor after itself
+    from fuzzybrep.build import build_map
+    from fuzzybrep.fuzzy import fuzzify
+
+    empty = room(6, 4)
+    person = shapely.box(2.8, 1.8, 3.2, 2.2)
+    poses = [(1.0 + 0.5 * k, 1.0 + 0.2 * k, 0.4 * k) for k in range(5)]
+    scans = [scan_of(empty.difference(person) if k == 2 else empty, p, n=361, fov=2 * np.pi - 0.02, t=float(k))
+             for k, p in enumerate(poses)]
+    cfg = BuildConfig()
+    cut = fuzzify(build_map(scans, cfg).crisp, tme=cfg.tme).alpha_cut(0.0, "exact")
+    pts, times = E.endpoints(scans), E.endpoint_times(scans)
+    assert len(times) == len(pts) and set(times[E.seen_near(pts, [scans[2]], 1e-9)]) == {2.0}
+    s = E.score(pts, cut.inner, cut.outer)
+    on_person = shapely.intersects_xy(person, *pts.T)
+    assert on_person.any() and s.violated[on_person].all()  # the map dropped the person
+    went = E.came_and_went(pts, times, scans, cfg, cfg.tme)
+    assert went[on_person].all()  # seen through before (scans 0, 1) and after (3, 4)
+    assert not went[~on_person & shapely.intersects_xy(shapely.buffer(empty.exterior, 0.05), *pts.T)].any()
+    # with the scans after it gone, the person came but did not go
+    assert not E.came_and_went(pts, times, scans[:3], cfg, cfg.tme)[on_person].any()
+
+
 def test_only_returns_closer_than_max_range_are_scored():
     # a return at 1 m, one at exactly max_range (5 m), one just short of it, and a beam with no return
     s = Scan(np.array([1.0, 5.0, 4.99, 80.0]), np.radians([-10.0, 0.0, 10.0, 20.0]), np.zeros(3), 0.0, 80.0)

@@ -166,6 +166,23 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
     return before, after
 
 
+def came_and_went(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], config, margin: float) -> np.ndarray:
+    """Per point: seen free by ``scans`` both before and after its time (``seen_free``), with the
+    free ranges the map uses (``config``'s spike filter), beams passing ``margin`` or more beyond.
+
+    For points of the scans themselves (a map judged on its own endpoints) the point's own scan
+    counts neither way: it is neither before nor after its own time.
+    """
+    free = [f for f, _ in classify_all(scans, config.beams, config.polygon)]
+    before, after = seen_free(points, times, scans, free, margin)
+    return before & after
+
+
+def endpoint_times(scans: Sequence[Scan], max_range: float = 5.0) -> np.ndarray:
+    """The time stamp of every endpoint ``endpoints`` returns, in the same order."""
+    return np.repeat([s.timestamp for s in scans], [int(scored(s, max_range).sum()) for s in scans])
+
+
 def score(points: np.ndarray, safe, outer) -> EndpointScore:
     """Classify points against the safe inner region and the outer polygon at α = 0."""
     shapely.prepare(safe)
@@ -289,14 +306,11 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     viol = scores["exact"].violated
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
     unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
-    times = np.repeat([s.timestamp for s in held], [int(scored(s, max_range).sum()) for s in held])  # per endpoint
-    free = [f for f, _ in classify_all(kept, config.beams, config.polygon)]
-    before, after = seen_free(pts[viol], times[viol], kept, free, tme)
-    came_and_went = before & after
+    went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme)
     share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
-    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(came_and_went),
-                      share(~unseen & ~came_and_went), scores["sweep"], iou, compact_bytes(fz), thesis,
+    return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(went),
+                      share(~unseen & ~went), scores["sweep"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)
