@@ -32,12 +32,20 @@ def test_map_is_valid_with_both_edge_kinds(built):
 def test_no_free_space_where_the_laser_saw_an_obstacle(built):
     # issue done-when: at most 5 % of endpoints (range under 5 m) inside the crisp free space
     # shrunk by 0.2 m, at most 2 % outside it grown by 0.2 m
-    _, scans, r = built
+    name, scans, r = built
     s = E.score(E.endpoints(scans), *E.band_by_buffer(r.crisp.to_shapely(), 0.2))
     assert s.violations <= 0.05
     assert s.beyond <= 0.02
     # and in fact far fewer violations than a plain union has (about 30 % on intel)
     assert s.violations <= 0.01
+    # those left are nearly all things other scans saw through before and after (people walking
+    # by), which the map drops, as it should; on ACES they alone exceed the held-out target of
+    # 0.5 %: the floor the README gives for any map that drops them
+    pts = E.endpoints(scans)
+    went = E.came_and_went(pts[s.violated], E.endpoint_times(scans)[s.violated], scans, BuildConfig(), 0.2)
+    assert s.violations - went.sum() / len(pts) <= 0.002
+    if name == "aces":
+        assert went.sum() / len(pts) > 0.005
 
 
 def test_fuzzy_map_is_at_least_20_times_smaller_than_the_5cm_grid(built):
