@@ -7,6 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
 from fuzzybrep import evidence
@@ -130,6 +132,26 @@ def test_bridged_joins_occupied_cells_closer_than_the_span():
     row = evidence.bridged(ev, 0.8).reshape(40, 40)
     assert row[10, 10:25].all() and row.sum() == 15 + 1
     assert evidence.bridged(ev, 0.5).sum() == 3
+
+
+@settings(deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(3, 14), st.integers(3, 14), st.floats(0.05, 0.6))
+def test_bridged_is_every_segment_between_two_occupied_cells_within_the_span(seed, nx, ny, span):
+    # the definition, pair by pair: each segment from the cell first in row order to the other,
+    # rounded at every half cell along its longer axis; cells on the grid's edges included
+    rng = np.random.default_rng(seed)
+    occupied = rng.random(nx * ny) < rng.uniform(0.02, 0.3)
+    ev = evidence.Evidence(np.zeros(2), 0.05, (ny, nx), occupied.astype(np.int32), occupied)
+    want = occupied.copy()
+    iy, ix = np.divmod(np.flatnonzero(occupied), nx)
+    for i in range(len(ix)):
+        for j in range(i + 1, len(ix)):
+            dx, dy = ix[j] - ix[i], iy[j] - iy[i]
+            n = 2 * max(abs(dx), abs(dy))
+            if n > 2 and np.hypot(dx, dy) <= span / 0.05:
+                t = np.arange(1, n) / n
+                want[np.rint(iy[i] + t * dy).astype(int) * nx + np.rint(ix[i] + t * dx).astype(int)] = True
+    assert np.array_equal(evidence.bridged(ev, span), want)
 
 
 def test_scans_that_see_nothing_are_refused_clearly():
