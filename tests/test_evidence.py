@@ -325,3 +325,24 @@ def test_clip_is_the_same_with_samples_cached_or_sampled_again(step):
     assert (free[0] < rays.length).any()  # something was clipped
     np.testing.assert_array_equal(free[0], free[1])
     np.testing.assert_array_equal(free[0], free[2])
+
+
+def test_rays_hold_a_scan_origin_and_time_once_and_give_the_same_evidence_as_rays_one_by_one():
+    # scans of different beam counts, out of time order, one of them a person who leaves: the
+    # evidence and free ranges of rays that share their scan's origin and time are those of the
+    # same rays each with its own copy
+    world = room(6, 4)
+    person = world.difference(shapely.box(2.8, 1.8, 3.2, 2.2))
+    spec = [(person, (1, 1), 91, 2.0), (world, (5, 3), 181, 0.0), (world, (1.5, 3), 46, 1.0), (world, (4, 1), 120, 3.0)]
+    scans = [scan_of(w, (x, y, 0.3), n=n, fov=2 * np.pi * (n - 1) / n, t=t) for w, (x, y), n, t in spec]
+    rays = rays_of(scans, classify_all(scans, BeamConfig(no_return_free=8.0), PolygonConfig()))
+    assert len(rays.origin_x) == 4 and rays.per_scan.tolist() == [91, 181, 46, 120]
+    assert rays.ox.tolist() == np.repeat([1.0, 5, 1.5, 4], [91, 181, 46, 120]).tolist()
+    assert rays.time.tolist() == np.repeat([2.0, 0, 1, 3], [91, 181, 46, 120]).tolist()
+    one_by_one = dataclasses.replace(rays, origin_x=rays.ox, origin_y=rays.oy, origin_time=rays.time, per_scan=None)
+    cfg = evidence.EvidenceConfig()
+    ev, ev1 = evidence.gather(rays, cfg), evidence.gather(one_by_one, cfg)
+    assert ev.hits.sum() > 0 and ev.occupied.any()
+    np.testing.assert_array_equal(ev.hits, ev1.hits)
+    np.testing.assert_array_equal(ev.occupied, ev1.occupied)
+    np.testing.assert_array_equal(evidence.clip(rays, ev, cfg), evidence.clip(one_by_one, ev1, cfg))

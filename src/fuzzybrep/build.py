@@ -93,6 +93,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         ev = evidence.gather(rays, config.evidence) if config.use_evidence else None
         free = evidence.clip(rays, ev, config.evidence) if ev is not None else rays.length
         free, status, clipped = _split_free(scans, beams, free)
+        del rays  # 57 MB on Freiburg that the later stages do not need
     with timer("scan polygons"):
         polygons = []
         for k in range(0, len(scans), _BATCH):
@@ -119,14 +120,14 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
 
 def rays_of(scans: Sequence[Scan], beams) -> Rays:
     """All beams of all scans as rays, in time order within each scan's own order."""
-    ox = np.concatenate([np.full(len(s.ranges), s.pose[0]) for s in scans])
-    oy = np.concatenate([np.full(len(s.ranges), s.pose[1]) for s in scans])
+    pose = np.array([s.pose for s in scans], dtype=np.float64).reshape(-1, 3)
+    t = np.array([s.timestamp for s in scans], dtype=np.float64)
     ang = np.concatenate([s.world_angles() for s in scans])
-    t = np.concatenate([np.full(len(s.ranges), s.timestamp) for s in scans])
     length = np.concatenate([f for f, _ in beams])
     r = np.concatenate([s.ranges for s in scans])
     hit = np.concatenate([s.returns for s in scans])
-    return Rays(ox, oy, np.cos(ang), np.sin(ang), length, t, hit, r)
+    per_scan = np.array([len(s.ranges) for s in scans], dtype=np.int64)
+    return Rays(pose[:, 0].copy(), pose[:, 1].copy(), np.cos(ang), np.sin(ang), length, t, hit, r, per_scan)
 
 
 def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m") -> None:
