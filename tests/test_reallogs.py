@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -75,3 +77,9 @@ def test_held_out_scans_are_predicted(name, real_scans):
     assert e.violations_rest <= 0.005
     if name != "aces":
         assert e.exact.violations <= 0.005
+    else:
+        # the other answer to people walking by, keeping every obstacle a kept scan saw, does not
+        # meet the target either: the people held-out scans see were mostly seen by no kept scan
+        keep = BuildConfig()
+        keep = replace(keep, evidence=replace(keep.evidence, clear=False))
+        assert E.evaluate_log(scans, 2, keep).exact.violations > 0.005
