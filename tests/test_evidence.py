@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
 from fuzzybrep import evidence
+from fuzzybrep import build
 from fuzzybrep.build import BuildConfig, build_map, rays_of
 from fuzzybrep.errors import GeometryError
 from fuzzybrep.polygon import PolygonConfig
@@ -346,3 +347,35 @@ def test_rays_hold_a_scan_origin_and_time_once_and_give_the_same_evidence_as_ray
     np.testing.assert_array_equal(ev.hits, ev1.hits)
     np.testing.assert_array_equal(ev.occupied, ev1.occupied)
     np.testing.assert_array_equal(evidence.clip(rays, ev, cfg), evidence.clip(one_by_one, ev1, cfg))
+
+
+@pytest.mark.parametrize("no_return_free", [0.0, 8.0])
+def test_rays_in_batches_give_the_evidence_and_free_ranges_of_all_rays_at_once(no_return_free):
+    # 200 scans of 361 beams (72 200 rays) round a room with a pillar and a person who leaves,
+    # every fourth beam of the first 100 without a return: made in batches of a few scans each (rays indexed by
+    # two bytes in their batch), or in one batch of more than 65 536 rays (four bytes), the
+    # evidence and each ray's free range are those of all rays at once
+    world = room(6, 4).difference(shapely.box(2.9, 1.9, 3.1, 2.1))
+    person = world.difference(shapely.box(1.4, 0.4, 1.6, 0.6))
+    rng = np.random.default_rng(3)
+    poses = np.column_stack((rng.uniform(0.8, 5.2, 200), rng.uniform(0.8, 3.2, 200), rng.uniform(-np.pi, np.pi, 200)))
+    scans = [scan_of(person if k < 60 else world, p, n=361, fov=2 * np.pi * 360 / 361, t=float(k))
+             for k, p in enumerate(poses)]
+    scans = [dataclasses.replace(s, ranges=np.where((np.arange(len(s.ranges)) % 4 == 0) & (k < 100), 60.0, s.ranges),
+                                 max_range=60.0) for k, s in enumerate(scans)]
+    beams = classify_all(scans, BeamConfig(no_return_free=no_return_free), PolygonConfig())
+    cfg = evidence.EvidenceConfig(chunk=20_000)
+    whole = rays_of(scans, beams)
+    ev = evidence.gather(whole, cfg)
+    free = evidence.clip(whole, ev, cfg)
+    assert (free < whole.length - 1e-9).sum() > 100  # much was clipped
+    for chunk in (20_000, 10**9):  # many small batches; one batch of all 72 200 rays
+        c = dataclasses.replace(cfg, chunk=chunk)
+        batches = build.ray_batches(scans, beams, c)
+        assert (len(batches) > 10) if chunk == 20_000 else (len(batches) == 1)
+        assert np.array_equal(np.concatenate([b.time for b in batches]), whole.time)
+        ev_b = evidence.gather(batches, c, evidence.grid_frame(batches, c.cell))
+        np.testing.assert_array_equal(ev_b.hits, ev.hits)
+        np.testing.assert_array_equal(ev_b.occupied, ev.occupied)
+        assert ev_b.claims == (no_return_free > 0) and ev_b.samples
+        np.testing.assert_array_equal(evidence.clip(batches, ev_b, c), free)

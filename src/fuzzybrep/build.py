@@ -87,13 +87,13 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
     with timer("beams"):
         beams = classify_all(scans, config.beams, config.polygon)
     with timer("evidence"):
-        rays = rays_of(scans, beams)
         if config.use_evidence:
-            check_extent(scans, rays, config.evidence.cell, config.unit)
-        ev = evidence.gather(rays, config.evidence) if config.use_evidence else None
-        free = evidence.clip(rays, ev, config.evidence) if ev is not None else rays.length
+            rays = ray_batches(scans, beams, config.evidence)
+            ev = evidence.gather(rays, config.evidence, check_extent(scans, rays, config.evidence.cell, config.unit))
+            free = evidence.clip(rays, ev, config.evidence)
+        else:
+            ev, free = None, np.concatenate([f for f, _ in beams])
         free, status, clipped = _split_free(scans, beams, free)
-        del rays  # 57 MB on Freiburg that the later stages do not need
     with timer("scan polygons"):
         polygons = []
         for k in range(0, len(scans), _BATCH):
@@ -130,12 +130,29 @@ def rays_of(scans: Sequence[Scan], beams) -> Rays:
     return Rays(pose[:, 0].copy(), pose[:, 1].copy(), np.cos(ang), np.sin(ang), length, t, hit, r, per_scan)
 
 
-def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m") -> None:
-    """ScanValueError naming the scan (and the beam) that lies farthest out when the evidence grid
+def ray_batches(scans: Sequence[Scan], beams, cfg: evidence.EvidenceConfig) -> evidence.RayBatches:
+    """The rays of consecutive scans, about four of ``cfg.chunk``'s samples a batch (a scan is never
+    split; a few chunks a batch make a batch's own arrays count for little), each batch made by
+    ``rays_of`` when the evidence asks for it."""
+    samples = np.array([np.ceil(np.maximum(f, 0) / cfg.step).sum() + len(f) for f, _ in beams])
+    size = cfg.chunk
+    cut = np.searchsorted(np.cumsum(samples), np.arange(size, samples.sum() + size, size), "right")
+    bounds = np.unique(np.r_[0, np.minimum(cut, len(scans)), len(scans)])
+    bounds = [int(b) for b in bounds]
+
+    def make(i: int) -> Rays:
+        return rays_of(scans[bounds[i] : bounds[i + 1]], beams[bounds[i] : bounds[i + 1]])
+
+    times = np.array([s.timestamp for s in scans], dtype=np.float64)
+    return evidence.RayBatches(make, len(bounds) - 1, times)
+
+
+def check_extent(scans: Sequence[Scan], rays: "Rays | evidence.RayBatches", cell: float, unit: str = "m"):
+    """The evidence grid's frame (``evidence.grid_frame``) over ``rays``, or a ScanValueError naming the scan (and the beam) that lies farthest out when the evidence grid
     over ``rays`` would hold more than evidence.MAX_CELLS cells (farthest from the median scan
     position), or reach beyond evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a
     corrupt range or pose otherwise ended in NumPy failing to allocate terabytes, or an IndexError."""
-    origin, nx, ny = evidence.grid_frame(rays, cell)
+    frame = origin, nx, ny = evidence.grid_frame(rays, cell)
     reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
     if nx * ny > evidence.MAX_CELLS:
         centre, where = np.median([s.pose[:2] for s in scans], axis=0), "the median scan position"
@@ -146,7 +163,7 @@ def check_extent(scans: Sequence[Scan], rays: Rays, cell: float, unit: str = "m"
         why = f"a float places a {cell:g} {unit} cell of the evidence grid only within " \
               f"±{evidence.MAX_CELLS_FROM_ZERO * cell:.3g} {unit} of (0, 0)"
     else:
-        return
+        return frame
     what, d, source = farthest_out(scans, centre)
     # a log in millimetres lands here too (every setting of the build is metric): say so
     raise ScanValueError(source, None, f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt, "

@@ -33,6 +33,7 @@ from __future__ import annotations
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import shapely
@@ -52,7 +53,7 @@ class EvidenceConfig:
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
-    chunk: int = 250_000  #: samples per batch: bounds the memory each of the two threads takes (no faster when larger)
+    chunk: int = 250_000  #: samples per chunk: bounds the memory each of the two threads takes (no faster when larger)
     cache: int = 16_000_000  #: ray samples that could stop their ray kept between the two passes, at most
 
 
@@ -65,8 +66,9 @@ class Evidence:
     shape: tuple[int, int]  # (ny, nx)
     hits: np.ndarray  # (ny*nx,) int32 number of returns per cell
     occupied: np.ndarray  # (ny*nx,) bool
-    samples: list | None = None  # per chunk of ``gather``, its samples that could stop a ray (or
-    # the chunk's range to sample again), for ``clip`` to reuse (then dropped)
+    samples: list | None = None  # per batch and chunk of ``gather``, its samples that could stop a
+    # ray (or the chunk's range to sample again), for ``clip`` to reuse (then dropped)
+    claims: bool = False  # some beam with no return claims free space (``no_return_free``)
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         ny, nx = self.shape
@@ -123,6 +125,32 @@ class Rays:
     @property
     def hy(self) -> np.ndarray:
         return self.oy[self.hit] + self.hit_range[self.hit] * self.sin[self.hit]
+
+
+@dataclass(frozen=True)
+class RayBatches:
+    """Rays in consecutive batches, each made when it is asked for (``make(i)``), so that the
+    steps below hold the rays of a batch or two at a time. All of a long log's rays at once take
+    some 70 bytes a ray in them (120 MB on Freiburg's 1.7 M), and grow with the log, where the
+    evidence grid grows only with the place. ``times``: the time of every origin, batch after
+    batch, as the batches' ``origin_time`` give them (their order ranks the evidence)."""
+
+    make: Callable[[int], Rays]
+    count: int
+    times: np.ndarray
+
+    def __len__(self) -> int:
+        return self.count
+
+    def __getitem__(self, i: int) -> Rays:
+        if not 0 <= i < self.count:
+            raise IndexError(i)
+        return self.make(i)
+
+
+def batched(rays: "Rays | RayBatches") -> RayBatches:
+    """Rays held all at once as one batch; batches as they are."""
+    return rays if isinstance(rays, RayBatches) else RayBatches(lambda i: rays, 1, rays.origin_time)
 
 
 def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
@@ -200,7 +228,7 @@ def _cells_of(g, nx: int, ray: np.ndarray, k: np.ndarray) -> np.ndarray:
 
 
 def _chunks(length: np.ndarray, cfg: EvidenceConfig):
-    """Ray index ranges whose samples fit in one batch."""
+    """Ray index ranges whose samples fit in one chunk."""
     per_ray = np.ceil(np.maximum(length, 0) / cfg.step) + 1
     cum = np.cumsum(per_ray)
     bounds = np.searchsorted(cum, np.arange(cfg.chunk, cum[-1] + cfg.chunk, cfg.chunk)) if len(cum) else []
@@ -233,13 +261,18 @@ MAX_CELLS = 40_000_000
 MAX_CELLS_FROM_ZERO = 2.0**46
 
 
-def grid_frame(rays: Rays, cell: float) -> tuple[np.ndarray, float, float]:
+def grid_frame(rays: "Rays | RayBatches", cell: float) -> tuple[np.ndarray, float, float]:
     """(origin, nx, ny) of the grid that holds every hit, ray origin and ray end, with a margin.
     nx and ny are floats, so that a grid too large to hold can be measured."""
-    xs = np.concatenate((rays.hx, rays.origin_x, rays.ox + rays.length * rays.cos))
-    ys = np.concatenate((rays.hy, rays.origin_y, rays.oy + rays.length * rays.sin))
-    origin = np.array([xs.min() - 2 * cell, ys.min() - 2 * cell])
-    return origin, np.floor((xs.max() - origin[0]) / cell) + 3, np.floor((ys.max() - origin[1]) / cell) + 3
+    lo, hi = np.full(2, np.inf), np.full(2, -np.inf)
+    for b in batched(rays):
+        xs = np.concatenate((b.hx, b.origin_x, b.ox + b.length * b.cos))
+        ys = np.concatenate((b.hy, b.origin_y, b.oy + b.length * b.sin))
+        if len(xs):
+            lo = np.minimum(lo, (xs.min(), ys.min()))
+            hi = np.maximum(hi, (xs.max(), ys.max()))
+    origin = lo - 2 * cell
+    return origin, np.floor((hi[0] - origin[0]) / cell) + 3, np.floor((hi[1] - origin[1]) / cell) + 3
 
 
 def time_ranks(t: np.ndarray) -> np.ndarray:
@@ -249,77 +282,102 @@ def time_ranks(t: np.ndarray) -> np.ndarray:
     return (np.unique(t, return_inverse=True)[1].reshape(-1) + 1).astype(np.int32)
 
 
-def gather(rays: Rays, cfg: EvidenceConfig = EvidenceConfig()) -> Evidence:
+def _claims(b: Rays) -> np.ndarray:
+    """No-return beams that claim free space (``no_return_free``)."""
+    return ~b.hit & (b.length > 0)
+
+
+def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), frame=None) -> Evidence:
     """Hits and the time-aware occupied state of every cell (steps 1-3 above). A grid over more
     than MAX_CELLS, or reaching beyond MAX_CELLS_FROM_ZERO, is the caller's to refuse first
-    (``build.check_extent``, which names the scan)."""
-    origin, nx, ny = grid_frame(rays, cfg.cell)
+    (``build.check_extent``, which names the scan, and gives its ``frame``: ``grid_frame``'s
+    answer, worked out here if not given). Batches are made once for the hits and once for the
+    crossings; ``clip`` makes them once more."""
+    batches = batched(rays)
+    origin, nx, ny = grid_frame(batches, cfg.cell) if frame is None else frame
     nx, ny = int(nx), int(ny)
     ev = Evidence(origin, cfg.cell, (ny, nx), np.zeros(0, np.int32), np.zeros(0, bool))
 
-    hc = ev.cell_index(rays.hx, rays.hy)  # the hit cells, dropped before the rays are sampled
-    hits = np.bincount(hc, minlength=nx * ny).astype(np.int32)
+    # times as ranks (int32, 0 = never): only their order counts, and a grid of them is half
+    # the memory of float64 times (the evidence grid is this stage's peak: 1.3 M cells on ACES)
+    ranks = time_ranks(batches.times)
+    first_origin = [0]  # of every batch, in ``ranks``
+    hits = np.zeros(nx * ny, np.int32)
+    last_hit = np.zeros(nx * ny, np.int32) if cfg.clear else None
+    total, longest, ev.claims = 0, 0, False
+    for b in batches:
+        hc = ev.cell_index(b.hx, b.hy)
+        hits += np.bincount(hc, minlength=nx * ny).astype(np.int32)
+        rank = b.spread(ranks[first_origin[-1] : first_origin[-1] + len(b.origin_time)])
+        first_origin.append(first_origin[-1] + len(b.origin_time))
+        if last_hit is not None:
+            np.maximum.at(last_hit, hc, rank[b.hit])
+        count = _sample_counts(b.length, cfg.step)
+        total, longest = total + int(count.sum()), max(longest, int(count.max(initial=0)))
+        ev.claims |= bool(_claims(b).any())
     ev.hits = hits
     if not cfg.clear:
         ev.occupied = hits > 0
         return ev
 
-    # times as ranks (int32, 0 = never): only their order counts, and a grid of them is half
-    # the memory of float64 times (the evidence grid is this stage's peak: 1.3 M cells on ACES)
-    rank = rays.spread(time_ranks(rays.origin_time))
-    last_hit = np.zeros(nx * ny, np.int32)
-    np.maximum.at(last_hit, hc, rank[rays.hit])
-    del hc
     # the newest hit anywhere next to a cell: a ray grazing a chair leg through pose noise is
     # not evidence that the leg has gone
     last_near = ndimage.maximum_filter(last_hit.reshape(ny, nx), size=3).ravel()
     del last_hit
     hits_near = ndimage.correlate(hits.reshape(ny, nx), np.ones((3, 3), np.int32)).ravel()  # exact sums
 
-    g = _grid_rays(rays, ev, cfg.step)
     # sample every ray once, to its full length: the crossings use the part short of its end, and
     # clip (step 4) all of it. Only a cell that was hit can turn out occupied, so clip needs just
     # the samples in hit cells, and all of those of no-return beams (a bridge crosses empty
     # cells): a small part of them, kept in memory when they fit in a chunk's share of ``cfg.cache``
-    count = _sample_counts(rays.length, cfg.step)
-    total = max(int(count.sum()), 1)
-    short = _samples_short_of(rays.length - cfg.cross_margin, cfg.step, count)
+    total = max(total, 1)
     can_stop = hits > 0
-    claims = ~rays.hit & (rays.length > 0)
-    claims = claims if claims.any() else None
-    k_type = np.int16 if count.max(initial=0) <= np.iinfo(np.int16).max else np.int32
+    k_type = np.int16 if longest <= np.iinfo(np.int16).max else np.int32
 
-    def crossings(chunk):
-        lo, hi = chunk
-        ray, k, c = _sample_cells(g, nx, count, lo, hi)
-        crossing = k < np.repeat(short[lo:hi], count[lo:hi])
-        r_, c_ = ray[crossing], c[crossing]
-        # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
-        # (a chunk whose rays all end within cross_margin crosses nothing)
-        first_in_cell = np.ones(len(c_), bool)
-        np.not_equal(c_[1:], c_[:-1], out=first_in_cell[1:])
-        first_in_cell[1:] |= r_[1:] != r_[:-1]
-        c_ = c_[first_in_cell]
-        newer = rank[r_[first_in_cell]] > last_near[c_]
-        # counted over the cells from the chunk's first to its last only: a chunk is a few scans
-        # from one place, and two counts over the whole grid per chunk cost more than its samples
-        first = int(c_.min()) if len(c_) else 0
-        c_ -= first
-        span = int(c_.max()) + 1 if len(c_) else 0
-        near, all_ = (np.bincount(x, minlength=span).astype(np.int32) for x in (c_[newer], c_))
-        counts = first, near, all_
-        stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
-        if len(stop) > cfg.cache * len(ray) / total:
-            return counts, (lo, hi)
-        # the cells are worked out again when needed: kept, they were a third of the cache
-        return counts, ((lo, hi), ray[stop], k[stop].astype(k_type))
+    def crossings(i):
+        b = batches[i]
+        g = _grid_rays(b, ev, cfg.step)
+        count = _sample_counts(b.length, cfg.step)
+        short = _samples_short_of(b.length - cfg.cross_margin, cfg.step, count)
+        rank = b.spread(ranks[first_origin[i] : first_origin[i + 1]])
+        claims = _claims(b) if ev.claims else None
+        # a ray of a batch by its index in the batch: two bytes in a batch of up to 65536 rays
+        r_type = np.uint16 if len(b.length) <= 1 << 16 else np.int32
+        counts, kept = [], []
+        for lo, hi in _chunks(b.length, cfg):
+            ray, k, c = _sample_cells(g, nx, count, lo, hi)
+            crossing = k < np.repeat(short[lo:hi], count[lo:hi])
+            r_, c_ = ray[crossing], c[crossing]
+            # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
+            # (a chunk whose rays all end within cross_margin crosses nothing)
+            first_in_cell = np.ones(len(c_), bool)
+            np.not_equal(c_[1:], c_[:-1], out=first_in_cell[1:])
+            first_in_cell[1:] |= r_[1:] != r_[:-1]
+            c_ = c_[first_in_cell]
+            newer = rank[r_[first_in_cell]] > last_near[c_]
+            # counted over the cells from the chunk's first to its last only: a chunk is a few
+            # scans from one place, and two counts over the whole grid per chunk cost more than
+            # its samples
+            first = int(c_.min()) if len(c_) else 0
+            c_ -= first
+            span = int(c_.max()) + 1 if len(c_) else 0
+            near, all_ = (np.bincount(x, minlength=span).astype(np.int32) for x in (c_[newer], c_))
+            counts.append((first, near, all_))
+            stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
+            if len(stop) > cfg.cache * len(ray) / total:
+                kept.append((lo, hi))
+            else:
+                # the cells are worked out again when needed: kept, they were a third of the cache
+                kept.append(((lo, hi), ray[stop].astype(r_type), k[stop].astype(k_type)))
+        return counts, kept
 
     after_near = np.zeros(nx * ny, np.int32)
     crossed = np.zeros(nx * ny, np.int32)
     ev.samples = []
-    for (first, near, all_), kept in _parallel(crossings, _chunks(rays.length, cfg)):
-        after_near[first : first + len(near)] += near
-        crossed[first : first + len(all_)] += all_
+    for counts, kept in _parallel(crossings, range(len(batches))):
+        for first, near, all_ in counts:
+            after_near[first : first + len(near)] += near
+            crossed[first : first + len(all_)] += all_
         ev.samples.append(kept)
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
@@ -371,36 +429,39 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
     return out
 
 
-def clip(rays: Rays, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np.ndarray:
-    """Each ray's free range, stopped at the first occupied cell in front of its own end (step 4)."""
-    out = rays.length.copy()
-    g = _grid_rays(rays, ev, cfg.step)
-    count = _sample_counts(rays.length, cfg.step)
-    # evidence at the beam's own end is its own return, not a conflict
-    own_end = np.where(rays.hit, rays.hit_range, np.inf) - cfg.own_margin
+def clip(rays: "Rays | RayBatches", ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()) -> np.ndarray:
+    """Each ray's free range, stopped at the first occupied cell in front of its own end (step 4),
+    for all rays of all batches in order."""
+    batches = batched(rays)
     nx = ev.shape[1]
-    claims = ~rays.hit & (rays.length > 0)  # no-return beams that claim free space (``no_return_free``)
-    wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and claims.any() else None
-
-    def first_conflict(chunk):
-        if len(chunk) == 3:  # kept by gather: the samples that could stop their rays
-            _, ray, k = chunk
-            c = _cells_of(g, nx, ray, k)
-        else:
-            lo, hi = chunk
-            ray, k, c = _sample_cells(g, nx, count, lo, hi)
-        d = k * cfg.step
-        occ = ev.occupied[c] if wide is None else np.where(rays.hit[ray], ev.occupied[c], wide[c])
-        occ &= d < own_end[ray]
-        r, dd = ray[occ], d[occ]
-        # samples come ray by ray in order of distance: the first of each ray is the nearest
-        first = np.flatnonzero(np.r_[True, r[1:] != r[:-1]]) if len(r) else np.zeros(0, np.int64)
-        return r[first], dd[first]
-
-    jobs = ev.samples if ev.samples is not None else list(_chunks(rays.length, cfg))
+    wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and ev.claims else None
+    samples = ev.samples
     ev.samples = None  # used once: give the memory back
-    for r, d in _parallel(first_conflict, jobs):
-        # a return stops short of the evidence it conflicts with; a no-return beam reaches the
-        # surface the bridge stands for
-        out[r] = np.minimum(out[r], np.maximum(np.where(rays.hit[r], d - cfg.step, d), 0.0))
-    return out
+
+    def clipped(i):
+        b = batches[i]
+        out = b.length.copy()
+        g = _grid_rays(b, ev, cfg.step)
+        count = _sample_counts(b.length, cfg.step)
+        # evidence at the beam's own end is its own return, not a conflict
+        own_end = np.where(b.hit, b.hit_range, np.inf) - cfg.own_margin
+        for chunk in samples[i] if samples is not None else _chunks(b.length, cfg):
+            if len(chunk) == 3:  # kept by gather: the samples that could stop their rays
+                _, ray, k = chunk
+                c = _cells_of(g, nx, ray, k)
+            else:
+                ray, k, c = _sample_cells(g, nx, count, *chunk)
+            d = k * cfg.step
+            occ = ev.occupied[c] if wide is None else np.where(b.hit[ray], ev.occupied[c], wide[c])
+            occ &= d < own_end[ray]
+            r, dd = ray[occ], d[occ]
+            # samples come ray by ray in order of distance: the first of each ray is the nearest
+            first = np.flatnonzero(np.r_[True, r[1:] != r[:-1]]) if len(r) else np.zeros(0, np.int64)
+            r, dd = r[first], dd[first]
+            # a return stops short of the evidence it conflicts with; a no-return beam reaches
+            # the surface the bridge stands for
+            out[r] = np.minimum(out[r], np.maximum(np.where(b.hit[r], dd - cfg.step, dd), 0.0))
+        return out
+
+    parts = list(_parallel(clipped, range(len(batches))))
+    return np.concatenate(parts) if parts else np.zeros(0)
