@@ -83,6 +83,10 @@ def edit(d, what):
         d["scans"]["poses"] = [[1, 1, 0]]
     elif what == "x and y":
         shell["y"] = shell["y"][:-1]
+    elif what == "no x":
+        del shell["x"]
+    elif what == "no shell":
+        del d["regions"][0]["shell"]
     elif what == "no regions":
         d["regions"] = []
     elif what == "region":
@@ -107,6 +111,8 @@ def edit(d, what):
     ("overlapping piece", "piece 2, vertex 1: overlaps principal near (3, 3)"),  # before: read, area counted twice
     ("pose of 3", "scans.poses must be rows of x, y, heading, time; got shape (1, 3)"),
     ("x and y", "region 0 shell: x has 4 values, y has 3"),
+    ("no x", "region 0 shell: missing key 'x'"),                     # before: "region 0 shell: 'x'"
+    ("no shell", "region 0 shell: expected an object with x, y, kind and fm lists, got NoneType"),
     ("no regions", "malformed map: no regions"),
     ("region", "region 0 must be an object with a shell and holes, got int"),
     ("format", "not a fuzzybrep map (format field is 'geojson')"),
