@@ -83,6 +83,10 @@ def edit(d, what):
         d["scans"]["poses"] = [[1, 1, 0]]
     elif what == "x and y":
         shell["y"] = shell["y"][:-1]
+    elif what == "no x":
+        del shell["x"]
+    elif what == "no shell":
+        del d["regions"][0]["shell"]
     elif what == "no regions":
         d["regions"] = []
     elif what == "region":
@@ -107,6 +111,8 @@ def edit(d, what):
     ("overlapping piece", "piece 2, vertex 1: overlaps principal near (3, 3)"),  # before: read, area counted twice
     ("pose of 3", "scans.poses must be rows of x, y, heading, time; got shape (1, 3)"),
     ("x and y", "region 0 shell: x has 4 values, y has 3"),
+    ("no x", "region 0 shell: missing key 'x'"),                     # before: "region 0 shell: 'x'"
+    ("no shell", "region 0 shell: expected an object with x, y, kind and fm lists, got NoneType"),
     ("no regions", "malformed map: no regions"),
     ("region", "region 0 must be an object with a shell and holes, got int"),
     ("format", "not a fuzzybrep map (format field is 'geojson')"),
@@ -558,3 +564,25 @@ def test_no_command_writes_over_its_own_input(tmp_path, capsys, monkeypatch):
     fails(capsys, ["export", m, "--geojson", tmp_path / "x", "--svg", "x"], "x: cannot write: it is given for two outputs")
     assert {p.name: p.read_bytes() for p in (log, m)} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]
+
+
+def test_simulate_and_demo_do_not_write_over_their_world_or_route(tmp_path, capsys, monkeypatch):
+    # before: `simulate --world w.geojson --world-out w.geojson` rewrote the user's floor plan (its
+    # "name" replaced by the file's stem, any other property dropped), `--umbmark-out` could replace
+    # the --route file, and `demo --world d/floorplan.geojson --out d` rewrote its own input
+    from fuzzybrep.simulate import builtin_floor, builtin_route
+
+    monkeypatch.chdir(tmp_path)
+    world = tmp_path / "w.geojson"
+    builtin_floor().write_geojson(world, builtin_route())
+    route = tmp_path / "route.csv"
+    route.write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in builtin_route().waypoints) + "\n")
+    (tmp_path / "d").mkdir()
+    os.link(world, tmp_path / "d" / "floorplan.geojson")
+    before = {p: p.read_bytes() for p in (world, route)}
+    fails(capsys, ["simulate", "--world", world, "--world-out", "w.geojson"], "w.geojson: cannot write: it is the input")
+    fails(capsys, ["simulate", "--route", route, "--umbmark-out", route], "route.csv: cannot write: it is the input")
+    fails(capsys, ["demo", "--world", world, "--out", "d", "--no-figures"],
+          "floorplan.geojson: cannot write: it is the input")
+    assert {p: p.read_bytes() for p in (world, route)} == before
+    assert sorted(p.name for p in (tmp_path / "d").iterdir()) == ["floorplan.geojson"]

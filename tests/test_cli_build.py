@@ -133,3 +133,22 @@ def test_evaluate_prints_scores(tmp_path, capsys):
     assert cli.main(["evaluate", str(log), "--holdout", "2"]) == 0
     text = capsys.readouterr().out
     assert "explained" in text and "no kept scan saw any return within TME" in text and "violations that came and went" in text
+
+
+def test_consolidate_says_when_no_pair_was_found(tmp_path, capsys):
+    # before: --consolidate on a log without back-to-back opposite scans did nothing, silently;
+    # the summary shows "(N pairs consolidated)" only for N > 0, so the user could not tell
+    log, scans = scans_csv(tmp_path)
+    out = tmp_path / "m.json"
+    assert cli.main(["build", str(log), "--out", str(out), "--consolidate"]) == 0
+    err = capsys.readouterr().err
+    assert "note: --consolidate: no two consecutive scans" in err and "pairs consolidated" not in err
+    # a log that has such pairs is merged and says so
+    from fuzzybrep.scans.scan import Scan
+
+    turned = [x for s in scans[:4] for x in (s, Scan(s.ranges, s.bearings, s.pose + [0, 0, np.pi], s.timestamp + 0.5,
+                                                       s.max_range))]
+    write_csv(log, turned)
+    assert cli.main(["build", str(log), "--out", str(out), "--consolidate"]) == 0
+    err = capsys.readouterr().err
+    assert "(4 pairs consolidated)" in err and "note: --consolidate" not in err

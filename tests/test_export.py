@@ -119,6 +119,18 @@ def test_export_command_ros_free_area_matches_the_crisp_map(floor, floor_file, t
     assert free == pytest.approx(floor.crisp_geometry.area, rel=0.01)
 
 
+@pytest.mark.parametrize("stem", ["run #3", "a: b", "it's", "[x]"])
+def test_ros_yaml_names_its_image_whatever_the_map_file_is_called(floor, tmp_path, stem, capsys):
+    # before: the image name, by default the map file's, went into the YAML as a plain scalar, so
+    # "run #3.json" gave "image: run #3.pgm", which YAML (map_server, read_ros_map) reads as
+    # "run": map_server could not find the image; "a: b.pgm" was not even valid YAML
+    path = tmp_path / f"{stem}.json"
+    floor.save(path)
+    assert run("export", path, "--ros", tmp_path / "ros") == 0
+    m = read_ros_map(tmp_path / "ros" / f"{stem}.yaml")
+    assert m.image_path.name == f"{stem}.pgm" and m.image.shape[0] > 0
+
+
 def test_ros_export_of_a_map_in_millimetres_is_in_metres(tmp_path, capsys):
     from _fuzzy_shapes import thesis_map
     from fuzzybrep.fuzzy import fuzzify

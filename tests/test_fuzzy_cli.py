@@ -357,3 +357,25 @@ def test_read_points(tmp_path):
     p.write_text("1,2\nnan,3\n")
     with pytest.raises(MapFileError, match="p.csv: line 2: x,y must be finite"):
         read_points(p)
+
+
+def test_fuzzify_reads_back_the_crisp_map_of_exported_alpha_cuts(tmp_path, capsys):
+    # before: export --geojson (and alpha-cut) write the crisp map with its inner and outer α-cuts,
+    # and fuzzify united them all, so the map read back was the α = 0 outer cut (10×10 m square:
+    # 100 m² became 108 m²), and the crisp feature's "unit" was ignored (a map in mm read as m)
+    src = tmp_path / "sq.geojson"
+    mm = lambda ring: [(1000 * x, 1000 * y) for x, y in ring]  # noqa: E731
+    src.write_text(json.dumps(polygon(mm(SQUARE), mm(HOLE))))
+    first, again = tmp_path / "a.json", tmp_path / "b.json"
+    assert run("fuzzify", src, "--unit", "mm", "--tme", 200, "--out", first) == 0
+    for cmd in (("export", first, "--geojson", tmp_path / "cuts.geojson"),
+                ("alpha-cut", first, "--alpha", 0, "--out", tmp_path / "cuts.geojson")):
+        assert run(*cmd) == 0
+        assert run("fuzzify", tmp_path / "cuts.geojson", "--tme", 200, "--out", again) == 0
+        a, b = FuzzyBRepMap.load(first), FuzzyBRepMap.load(again)
+        assert b.unit == "mm" and b.crisp.area == a.crisp.area == 96e6 and b.crisp.n_holes == 1
+    # α-cuts without their crisp map are not one: refused, naming the feature
+    fc = json.loads((tmp_path / "cuts.geojson").read_text())
+    fc["features"] = fc["features"][1:]
+    with pytest.raises(ValueError, match=r"feature 1 polygon: an α-cut \(role 'inner', alpha 0"):
+        crisp_from_geojson(fc)

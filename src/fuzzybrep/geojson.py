@@ -7,7 +7,8 @@ Overlapping polygons are united; the result is a BRepMap (largest piece = princi
 shells counter-clockwise, holes clockwise). A floor plan in the simulator's scheme (the demo's
 floorplan.geojson) reads as its free space: features with ``"role": "obstacle"`` are cut out,
 the route and glass lines carry no area and are passed over, and its top-level ``"unit"`` is
-the map's unit unless the caller says otherwise.
+the map's unit unless the caller says otherwise. The α-cut collections fuzzybrep writes (export
+--geojson, alpha-cut) read as their ``"role": "crisp"`` feature, in its ``"unit"``.
 """
 
 from __future__ import annotations
@@ -47,12 +48,23 @@ def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
 
 def crisp_from_geojson(obj, unit: str | None = None) -> BRepMap:
     """The crisp map in a parsed GeoJSON object (see ``read_geojson``)."""
+    items = list(_polygon_coords(obj))
     said = obj.get("unit") if isinstance(obj, dict) else None
+    if any(props.get("role") == "crisp" for _, _, props in items):
+        # what export --geojson and alpha-cut write: the crisp map, then α-cuts derived from it,
+        # which united with it would give the outer α = 0 cut; the crisp features carry the unit
+        items = [it for it in items if it[2].get("role") == "crisp"]
+        said = said if said is not None else next((p["unit"] for _, _, p in items if "unit" in p), None)
+    else:
+        cut = next(((where, p) for _, where, p in items if p.get("role") in ("inner", "outer")), None)
+        if cut is not None:  # an α-cut alone is a margin at some α, not a crisp map
+            where, p = cut
+            raise ValueError(_at(where, f"an α-cut (role {p['role']!r}, alpha {p.get('alpha')!r}), not a crisp "
+                                        f"map: give the file with its 'role': 'crisp' feature"))
     if said is not None and unit is not None and said != unit:
         raise ValueError(f"the file's unit is {said!r}, but {unit!r} was given")
-    items = list(_polygon_coords(obj))
-    free = [_polygon(coords, where) for coords, where, obstacle in items if not obstacle]
-    obstacles = [_polygon(coords, where) for coords, where, obstacle in items if obstacle]
+    free = [_polygon(coords, where) for coords, where, props in items if props.get("role") != "obstacle"]
+    obstacles = [_polygon(coords, where) for coords, where, props in items if props.get("role") == "obstacle"]
     if not free:
         raise ValueError("no Polygon or MultiPolygon of free space in the GeoJSON")
     geom = free[0] if len(free) == 1 else shapely.union_all(free)
@@ -62,8 +74,8 @@ def crisp_from_geojson(obj, unit: str | None = None) -> BRepMap:
 
 
 def _polygon_coords(obj, where: str = "", props: dict | None = None):
-    """Yield (coordinates of one polygon, its name, whether it is an obstacle) from any GeoJSON
-    object; ``props``: the properties of the feature it belongs to."""
+    """Yield (coordinates of one polygon, its name, the properties of the feature it belongs to)
+    from any GeoJSON object; ``props``: those properties."""
     if not isinstance(obj, dict):
         raise ValueError(_at(where, f"expected a GeoJSON object, got {type(obj).__name__}"))
     kind = obj.get("type")
@@ -84,13 +96,13 @@ def _polygon_coords(obj, where: str = "", props: dict | None = None):
         for i, g in enumerate(obj.get("geometries") or []):
             yield from _polygon_coords(g, f"{where + ' ' if where else ''}geometry {i + 1}", props)
     elif kind == "Polygon":
-        yield obj.get("coordinates"), (where + " polygon").strip(), props.get("role") == "obstacle"
+        yield obj.get("coordinates"), (where + " polygon").strip(), props
     elif kind == "MultiPolygon":
         coords = obj.get("coordinates")
         if not isinstance(coords, list):
             raise ValueError(_at(where, "MultiPolygon coordinates must be a list"))
         for j, c in enumerate(coords):
-            yield c, f"{where + ' ' if where else ''}polygon {j + 1}", props.get("role") == "obstacle"
+            yield c, f"{where + ' ' if where else ''}polygon {j + 1}", props
     elif kind in ("LineString", "MultiLineString") and (props.get("role") in ("route", "glass")
                                                          or props.get("material") == "glass"):
         return  # a floor plan's route, or glass on its walls: no area, nothing for the map

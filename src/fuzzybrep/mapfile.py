@@ -89,7 +89,9 @@ def _ring_from_json(d: dict, where: str) -> Ring:
         kinds = _whole(d, "kind", "edge kind", lambda k: (k == 0) | (k == 1), "is neither 0 (obstacle) nor 1 (frontier)")
         fm = _whole(d, "fm", "FM index", lambda f: (f >= 1) & (f < 2**31), "is not a whole number from 1 up")
         return Ring(np.column_stack((x, y)), kinds, fm)
-    except (KeyError, TypeError, ValueError) as e:
+    except KeyError as e:  # str(KeyError) is the bare key: "region 0 shell: 'x'" said nothing
+        raise ValueError(f"{where}: missing key {e}") from None
+    except (TypeError, ValueError) as e:
         raise ValueError(f"{where}{', ' if str(e).startswith('vertex ') else ': '}{e}") from None
 
 

@@ -119,11 +119,20 @@ def _num(x: float) -> str:
     return f"{mant}.0e{exp}" if e and "." not in mant else r
 
 
+def _yaml_string(s: str) -> str:
+    """A string as a YAML scalar that reads back as the same string: plain when it is a plain file
+    name, else single-quoted. Plain, the image name of a map file called "run #3.json" read back
+    as "run" (a '#' after a space starts a comment), and ": " or a leading "[" is not a name at all."""
+    if re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", s):
+        return s
+    return "'" + s.replace("'", "''") + "'"  # YAML's one escape in single quotes
+
+
 def map_yaml(image_name: str, resolution: float, origin, negate: bool = False, occupied_thresh: float = OCCUPIED_THRESH,
              free_thresh: float = FREE_THRESH, mode: str | None = "trinary") -> str:
     """The YAML text of a map_server map (flat keys, ``origin`` as a flow list, as map_saver writes)."""
     ox, oy, yaw = (float(v) for v in origin)
-    lines = [f"image: {image_name}"]
+    lines = [f"image: {_yaml_string(image_name)}"]
     if mode is not None:
         lines.append(f"mode: {mode}")
     lines += [
@@ -301,7 +310,9 @@ def _strip_comment(line: str) -> str:
 
 
 def _scalar(tok: str):
-    if len(tok) >= 2 and tok[0] == tok[-1] and tok[0] in "'\"":
+    if len(tok) >= 2 and tok[0] == tok[-1] == "'":
+        return tok[1:-1].replace("''", "'")
+    if len(tok) >= 2 and tok[0] == tok[-1] == '"':
         return tok[1:-1]
     low = tok.lower()
     if low in ("true", "yes", "on"):

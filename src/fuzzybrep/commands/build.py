@@ -84,6 +84,9 @@ def run(args) -> int:
     scans, report = read_log(args)
     if args.consolidate:
         scans, report.consolidated = consolidate_pairs(scans)
+        if not report.consolidated:  # the summary counts pairs only when there are some: say it did nothing
+            report.notes.append("--consolidate: no two consecutive scans were taken at one spot (within 5 cm) "
+                                "facing opposite ways (180° ± 10°): the scans are used as they are")
     for line in read_notes(report):  # before: the bag's pose source was never shown, nor what was assumed
         console.print(line, markup=False, highlight=False, soft_wrap=True)
 

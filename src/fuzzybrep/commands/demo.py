@@ -31,12 +31,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..demo import report, run_demo, summary
-    from ..mapfile import check_writable, write_atomic
+    from ..mapfile import check_outputs, write_atomic
     from ._world import world_and_route
 
     t0 = time.perf_counter()
     out = Path(args.out)
-    check_writable(out / "map.json")  # before the run, not after it
+    names = ["floorplan.geojson", "map.json", "report.json"]
+    if not args.no_figures:
+        from ..figures import FIGURES
+
+        names += list(FIGURES)
+    # before the run, not after it; --world out/floorplan.geojson would be rewritten by its own copy
+    check_outputs(*(out / n for n in names), inputs=(args.world, args.route))
     world, route, source = world_and_route(args)
     result = run_demo(world, route, seed=args.seed, pose_model="odometry" if args.raw_odometry else args.poses,
                       world_source=source)

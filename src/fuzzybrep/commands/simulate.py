@@ -42,7 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..mapfile import check_outputs
 
-    check_outputs(args.out, args.world_out, args.umbmark_out)
+    # the floor plan and route read are inputs: --world-out onto --world rewrote the user's plan
+    check_outputs(args.out, args.world_out, args.umbmark_out, inputs=(args.world, args.route))
     world, route, _ = world_and_route(args)
     robot = DiffDrive.pioneer_3dx(calibrated=not args.uncalibrated)
     overrides = {k: v for k, v in (("E_d", args.ed), ("E_b", args.eb), ("slip", args.slip)) if v is not None}
