@@ -34,7 +34,6 @@ import argparse
 import json
 import os
 import platform
-import re
 import statistics
 import sys
 import time
@@ -54,8 +53,7 @@ from fuzzybrep.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 import peak  # noqa: E402
-
-START, END = "<!-- benchmark:start -->", "<!-- benchmark:end -->"
+from blocks import BlockError, demote_headings, write_block  # noqa: E402
 
 
 def median_time(fn, repeat: int):
@@ -275,7 +273,7 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
                      f"{s['seconds'] / base['seconds']:.2f} | {s['scans'] / base['scans']:.0f} |")
     if alpha_md:
         # the α-cut script's own headings become bold lines, so the README keeps one "## Results"
-        L += ["", re.sub(r"^#{2,3} (.+)$", r"**\1**", alpha_md, flags=re.M).strip()]
+        L += ["", demote_headings(alpha_md)]
     if demo:
         L += ["", demo]
     return "\n".join(L) + "\n"
@@ -308,14 +306,11 @@ def main(argv=None) -> int:
     Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling}, indent=1, default=float))
     print(md)
     if args.readme:
-        readme = Path(args.readme)
-        text = readme.read_text()
-        if START not in text or END not in text:
-            print(f"{readme} has no {START} ... {END} block; not changed", file=sys.stderr)
+        try:
+            write_block(args.readme, None, md)
+        except BlockError as e:
+            print(f"{e}; not changed", file=sys.stderr)
             return 1
-        head, rest = text.split(START, 1)
-        _, tail = rest.split(END, 1)
-        readme.write_text(head + START + "\n" + md + END + tail)
     return 0
 
 
