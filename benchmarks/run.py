@@ -1,6 +1,7 @@
 """The benchmark behind every figure in the README: speed, size and truthfulness on the real logs.
 
     python benchmarks/run.py [--datasets DIR] [--repeat 3] [--out benchmarks/results.md] [--readme README.md]
+                             [--docs docs]
 
 For each CARMEN log in ``DIR/carmen`` (by default the first of $FUZZYBREP_DATASETS,
 ../shared/datasets beside the checkout and /work/shared/datasets that holds carmen/) it measures,
@@ -25,7 +26,9 @@ in one run:
   sweep's approximation error against the exact fuzzification.
 
 Writes the Markdown report (and a JSON twin) and, with --readme, replaces the block between
-``<!-- benchmark:start -->`` and ``<!-- benchmark:end -->`` in the README with it.
+``<!-- benchmark:start -->`` and ``<!-- benchmark:end -->`` in the README with it (``blocks.py``).
+With --docs DIR it then runs ``docs.py`` on the pages in DIR, handing over the maps it built:
+every measured figure of docs/*.md is written there between its own markers.
 """
 
 from __future__ import annotations
@@ -105,7 +108,8 @@ def all_scan_truthfulness(scans, crisp, cfg) -> tuple[float, float, float]:
     return s.violations, s.beyond, float(went.sum() / len(pts))
 
 
-def bench_log(name: str, path: Path, repeat: int) -> dict:
+def bench_log(name: str, path: Path, repeat: int, maps: dict | None = None) -> dict:
+    """The log's row of every table; its fuzzy map goes into ``maps`` (for docs.py) when given."""
     cfg = BuildConfig()
     print(f"[{name}] pipeline x{repeat}", file=sys.stderr, flush=True)
     runs = [pipeline(path, cfg) for _ in range(repeat)]
@@ -119,6 +123,8 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
     naive_inside = E.score(E.endpoints(scans), *E.band_by_buffer(naive[0][1], 0.2)).violations
     t_grid, grid = median_time(lambda: occupancy_grid(scans, 0.05), repeat)
     crisp = r.crisp
+    if maps is not None:
+        maps[name] = fz
     inside, outside, went = all_scan_truthfulness(scans, crisp, cfg)
     print(f"[{name}] held-out evaluation", file=sys.stderr, flush=True)
     ev = E.evaluate_log(scans, 2, cfg)
@@ -286,13 +292,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(HERE / "results.md"))
     ap.add_argument("--readme", help="README whose benchmark block to replace with the report")
     ap.add_argument("--no-scaling", action="store_true")
+    ap.add_argument("--docs", help="also write the generated blocks of the documentation pages in this folder (docs.py)")
     args = ap.parse_args(argv)
     d = Path(args.datasets) if args.datasets else datasets()
     logs = [(n, d / p) for n, p in LOGS.items() if (d / p).is_file()] if d else []
     if not logs:
         print(f"no CARMEN logs under {d or 'any of ' + SEARCHED}: nothing to measure", file=sys.stderr)
         return 1
-    results = [bench_log(n, p, args.repeat) for n, p in logs]
+    maps: dict = {}
+    results = [bench_log(n, p, args.repeat, maps) for n, p in logs]
     largest = max(logs, key=lambda lp: lp[1].stat().st_size)
     scaling = [] if args.no_scaling else bench_scaling(largest[1], args.repeat)
     from alpha_cut import run as alpha_run  # the α-cut benchmark, on the largest map
@@ -311,6 +319,10 @@ def main(argv=None) -> int:
         except BlockError as e:
             print(f"{e}; not changed", file=sys.stderr)
             return 1
+    if args.docs:
+        import docs  # the documentation pages' figures, with the maps built above
+
+        docs.run(Path(args.docs), args.repeat, maps, d=d)
     return 0
 
 
