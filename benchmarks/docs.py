@@ -51,6 +51,7 @@ from grid import LOGS, SEARCHED, datasets  # noqa: E402
 #: page -> its blocks, in the order they appear
 PAGES = {
     "grid.md": ("grid:example", "grid:yaml", "grid:numbers"),
+    "fuzzy.md": ("fuzzy:alpha-cut", "fuzzy:exact-cut"),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
