@@ -52,6 +52,7 @@ from grid import LOGS, SEARCHED, datasets  # noqa: E402
 PAGES = {
     "grid.md": ("grid:example", "grid:yaml", "grid:numbers"),
     "fuzzy.md": ("fuzzy:alpha-cut", "fuzzy:exact-cut"),
+    "demo.md": ("demo:poses", "demo:seeds", "demo:bridge", "demo:room"),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
