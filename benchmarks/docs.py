@@ -53,6 +53,7 @@ PAGES = {
     "grid.md": ("grid:example", "grid:yaml", "grid:numbers"),
     "fuzzy.md": ("fuzzy:alpha-cut", "fuzzy:exact-cut"),
     "demo.md": ("demo:poses", "demo:seeds", "demo:bridge", "demo:room"),
+    "simulator.md": ("simulator:floor", "simulator:drift"),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -226,16 +227,17 @@ def simulator_blocks(ctx: Context) -> dict[str, str]:
               ("slip only (`DiffDrive(slip=0.0005)`)", DiffDrive(slip=0.0005)),
               ("Table I.2, calibrated (the default)", DiffDrive.pioneer_3dx()),
               ("Table I.1, before calibration", DiffDrive.pioneer_3dx(calibrated=False))]
-    rows = [f"| robot | final position error, mean (min–max) over seeds {DRIFT_SEEDS[0]}–{DRIFT_SEEDS[-1]} | "
-            "final heading error, mean (min–max) |", "|---|---|---|"]
+    rows = [f"| robot | final position error, mean (min to max) over seeds {DRIFT_SEEDS[0]}–{DRIFT_SEEDS[-1]} | "
+            "final heading error, mean (min to max) |", "|---|---|---|"]
     for label, robot in robots:
         drift = np.array([simulate_run(world, route, Laser(), robot, seed=s).final_drift for s in DRIFT_SEEDS])
         pos, head = drift[:, 0], np.degrees(drift[:, 1])
         if pos.max() == 0 and not head.any():
             rows.append(f"| {label} | 0 | 0 |")
             continue
-        rows.append(f"| {label} | {pos.mean():.2f} m ({pos.min():.2f}–{pos.max():.2f}) | "
-                    f"{head.mean():+.1f}° ({head.min():+.1f}–{head.max():+.1f}) |")
+        deg = lambda v: f"{v:+.1f}°".replace("-", "−")  # noqa: E731
+        rows.append(f"| {label} | {pos.mean():.2f} m ({pos.min():.2f} to {pos.max():.2f}) | "
+                    f"{deg(head.mean())} ({deg(head.min())} to {deg(head.max())}) |")
     return {"simulator:floor": floor, "simulator:drift": stamp(False) + "\n\n" + "\n".join(rows)}
 
 
