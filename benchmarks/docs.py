@@ -54,6 +54,8 @@ PAGES = {
     "fuzzy.md": ("fuzzy:alpha-cut", "fuzzy:exact-cut"),
     "demo.md": ("demo:poses", "demo:seeds", "demo:bridge", "demo:room"),
     "simulator.md": ("simulator:floor", "simulator:drift"),
+    "export.md": ("export:yaml", "export:free-area"),
+    "viewer.md": ("viewer:intel",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -273,8 +275,8 @@ def viewer_blocks(ctx: Context) -> dict[str, str]:
         band = cut.outer.area - cut.inner.area
         d = max(shapely.symmetric_difference(inner, cut.inner).area, shapely.symmetric_difference(outer, cut.outer).area)
         parts.append(f"{d / band:.1e} at α = {alpha:g}")
-    return {"viewer:intel": f"On the Intel lab map the larger of the two is {' and '.join(parts)} "
-                            "(written by `benchmarks/docs.py`, `make bench`)."}
+    return {"viewer:intel": "On the Intel lab map the symmetric difference, inner or outer whichever is larger, is "
+                            f"{' and '.join(parts)} of the band's area (written by `benchmarks/docs.py`, `make bench`)."}
 
 
 # ----------------------------------------------------------------------------------------- run
