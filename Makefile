@@ -21,7 +21,7 @@ test: install
 	$(BIN)/python -m pytest -q
 
 bench: install
-	$(BIN)/python benchmarks/run.py --readme README.md
+	$(BIN)/python benchmarks/run.py --readme README.md --docs docs
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

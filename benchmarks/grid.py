@@ -94,6 +94,58 @@ def best(fn, repeat: int) -> tuple[float, object]:
     return min(times), out
 
 
+def table(d: Path, resolution: float = 0.05, repeat: int = 3, naive_scans: int = 40) -> str:
+    """The Markdown report for every CARMEN log under ``d``: sizes, free area, ratios (see module doc)."""
+    rows = []
+    for name, rel in LOGS.items():
+        path = d / rel
+        if not path.is_file():
+            continue
+        t_read, scans = best(lambda: read_scans(path), repeat)
+        t_grid, g = best(lambda: occupancy_grid(scans, resolution), repeat)
+        sub = scans[:naive_scans]
+        t0 = time.perf_counter()
+        naive_grid(sub, resolution)
+        t_naive_sub = time.perf_counter() - t0
+        t_naive = t_naive_sub * cells_traversed(scans, resolution) / cells_traversed(sub, resolution)
+        with tempfile.TemporaryDirectory() as tmp:
+            _, pgm = write_grid(Path(tmp) / "map.yaml", g)
+            pgm_bytes = pgm.stat().st_size
+        beams = sum(len(s.ranges) for s in scans)
+        ny, nx = g.shape
+        rows.append((name, len(scans), beams, f"{nx} × {ny}", g.cells, g.nbytes(4), pgm_bytes, g.free_area(),
+                     int(g.occupied().sum()), t_read, t_grid, t_grid / t_read, t_naive / t_grid))
+    md = [f"Occupancy grid at {resolution:g} m, {os.cpu_count()} core(s); times best of {repeat}, in seconds on the "
+          f"machine that ran the script (compare the ratios); naive time scaled from the first {naive_scans} scans "
+          "by cells traversed.", "",
+          "| log | scans | beams | grid | cells | bytes (4 B/cell) | PGM bytes | free area m² | occupied cells "
+          "| read s | grid s | grid / read | naive / grid |",
+          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        md.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:,} | {r[5]:,} | {r[6]:,} | {r[7]:.1f} | {r[8]:,} "
+                  f"| {r[9]:.3f} | {r[10]:.3f} | {r[11]:.2f} | {r[12]:.0f} |")
+    return "\n".join(md) + "\n"
+
+
+def example(d: Path, log: str = "intel") -> tuple[str, str]:
+    """What ``fuzzybrep grid`` prints for ``log`` and the YAML file it writes, as a reader would
+    run it from the checkout (``../shared/datasets/...``, ``--out out/intel-grid``)."""
+    import contextlib
+    import io
+
+    from fuzzybrep.cli import main as cli
+
+    shown_log, shown_out = f"../shared/datasets/{LOGS[log]}", f"out/{log}-grid"
+    with tempfile.TemporaryDirectory() as tmp:
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            if cli(["grid", str(d / LOGS[log]), "--out", tmp]) != 0:
+                raise RuntimeError(f"fuzzybrep grid {log} failed")
+        printed = out.getvalue().replace(tmp, shown_out).replace(str(d / LOGS[log]), shown_log).rstrip()
+        yaml = (Path(tmp) / "map.yaml").read_text().rstrip()
+    return f"$ fuzzybrep grid {shown_log} --out {shown_out}\n{printed}", yaml
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolution", type=float, default=0.05)
@@ -105,34 +157,7 @@ def main(argv=None) -> int:
     if d is None:
         print(f"no folder holding carmen/ in any of {SEARCHED}: set FUZZYBREP_DATASETS", file=sys.stderr)
         return 1
-    rows = []
-    for name, rel in LOGS.items():
-        path = d / rel
-        if not path.is_file():
-            continue
-        t_read, scans = best(lambda: read_scans(path), args.repeat)
-        t_grid, g = best(lambda: occupancy_grid(scans, args.resolution), args.repeat)
-        sub = scans[: args.naive_scans]
-        t0 = time.perf_counter()
-        naive_grid(sub, args.resolution)
-        t_naive_sub = time.perf_counter() - t0
-        t_naive = t_naive_sub * cells_traversed(scans, args.resolution) / cells_traversed(sub, args.resolution)
-        with tempfile.TemporaryDirectory() as tmp:
-            _, pgm = write_grid(Path(tmp) / "map.yaml", g)
-            pgm_bytes = pgm.stat().st_size
-        beams = sum(len(s.ranges) for s in scans)
-        ny, nx = g.shape
-        rows.append((name, len(scans), beams, f"{nx} × {ny}", g.cells, g.nbytes(4), pgm_bytes, g.free_area(),
-                     int(g.occupied().sum()), t_read, t_grid, t_grid / t_read, t_naive / t_grid))
-    md = [f"Occupancy grid at {args.resolution:g} m, {os.cpu_count()} core(s); times best of {args.repeat}; "
-          f"naive time scaled from the first {args.naive_scans} scans by cells traversed.", "",
-          "| log | scans | beams | grid | cells | bytes (4 B/cell) | PGM bytes | free area m² | occupied cells "
-          "| read s | grid s | grid / read | naive / grid |",
-          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in rows:
-        md.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:,} | {r[5]:,} | {r[6]:,} | {r[7]:.1f} | {r[8]:,} "
-                  f"| {r[9]:.3f} | {r[10]:.3f} | {r[11]:.2f} | {r[12]:.0f} |")
-    text = "\n".join(md) + "\n"
+    text = table(d, args.resolution, args.repeat, args.naive_scans)
     print(text)
     if args.out:
         write_atomic(args.out, text.encode())

@@ -1,6 +1,7 @@
 """The benchmark behind every figure in the README: speed, size and truthfulness on the real logs.
 
     python benchmarks/run.py [--datasets DIR] [--repeat 3] [--out benchmarks/results.md] [--readme README.md]
+                             [--docs docs]
 
 For each CARMEN log in ``DIR/carmen`` (by default the first of $FUZZYBREP_DATASETS,
 ../shared/datasets beside the checkout and /work/shared/datasets that holds carmen/) it measures,
@@ -25,7 +26,9 @@ in one run:
   sweep's approximation error against the exact fuzzification.
 
 Writes the Markdown report (and a JSON twin) and, with --readme, replaces the block between
-``<!-- benchmark:start -->`` and ``<!-- benchmark:end -->`` in the README with it.
+``<!-- benchmark:start -->`` and ``<!-- benchmark:end -->`` in the README with it (``blocks.py``).
+With --docs DIR it then runs ``docs.py`` on the pages in DIR, handing over the maps it built:
+every measured figure of docs/*.md is written there between its own markers.
 """
 
 from __future__ import annotations
@@ -34,7 +37,6 @@ import argparse
 import json
 import os
 import platform
-import re
 import statistics
 import sys
 import time
@@ -54,8 +56,7 @@ from fuzzybrep.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 import peak  # noqa: E402
-
-START, END = "<!-- benchmark:start -->", "<!-- benchmark:end -->"
+from blocks import BlockError, demote_headings, write_block  # noqa: E402
 
 
 def median_time(fn, repeat: int):
@@ -107,7 +108,8 @@ def all_scan_truthfulness(scans, crisp, cfg) -> tuple[float, float, float]:
     return s.violations, s.beyond, float(went.sum() / len(pts))
 
 
-def bench_log(name: str, path: Path, repeat: int) -> dict:
+def bench_log(name: str, path: Path, repeat: int, maps: dict | None = None) -> dict:
+    """The log's row of every table; its fuzzy map goes into ``maps`` (for docs.py) when given."""
     cfg = BuildConfig()
     print(f"[{name}] pipeline x{repeat}", file=sys.stderr, flush=True)
     runs = [pipeline(path, cfg) for _ in range(repeat)]
@@ -121,6 +123,8 @@ def bench_log(name: str, path: Path, repeat: int) -> dict:
     naive_inside = E.score(E.endpoints(scans), *E.band_by_buffer(naive[0][1], 0.2)).violations
     t_grid, grid = median_time(lambda: occupancy_grid(scans, 0.05), repeat)
     crisp = r.crisp
+    if maps is not None:
+        maps[name] = fz
     inside, outside, went = all_scan_truthfulness(scans, crisp, cfg)
     print(f"[{name}] held-out evaluation", file=sys.stderr, flush=True)
     ev = E.evaluate_log(scans, 2, cfg)
@@ -275,7 +279,7 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
                      f"{s['seconds'] / base['seconds']:.2f} | {s['scans'] / base['scans']:.0f} |")
     if alpha_md:
         # the α-cut script's own headings become bold lines, so the README keeps one "## Results"
-        L += ["", re.sub(r"^#{2,3} (.+)$", r"**\1**", alpha_md, flags=re.M).strip()]
+        L += ["", demote_headings(alpha_md)]
     if demo:
         L += ["", demo]
     return "\n".join(L) + "\n"
@@ -288,13 +292,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(HERE / "results.md"))
     ap.add_argument("--readme", help="README whose benchmark block to replace with the report")
     ap.add_argument("--no-scaling", action="store_true")
+    ap.add_argument("--docs", help="also write the generated blocks of the documentation pages in this folder (docs.py)")
     args = ap.parse_args(argv)
     d = Path(args.datasets) if args.datasets else datasets()
     logs = [(n, d / p) for n, p in LOGS.items() if (d / p).is_file()] if d else []
     if not logs:
         print(f"no CARMEN logs under {d or 'any of ' + SEARCHED}: nothing to measure", file=sys.stderr)
         return 1
-    results = [bench_log(n, p, args.repeat) for n, p in logs]
+    maps: dict = {}
+    results = [bench_log(n, p, args.repeat, maps) for n, p in logs]
     largest = max(logs, key=lambda lp: lp[1].stat().st_size)
     scaling = [] if args.no_scaling else bench_scaling(largest[1], args.repeat)
     from alpha_cut import run as alpha_run  # the α-cut benchmark, on the largest map
@@ -308,14 +314,15 @@ def main(argv=None) -> int:
     Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling}, indent=1, default=float))
     print(md)
     if args.readme:
-        readme = Path(args.readme)
-        text = readme.read_text()
-        if START not in text or END not in text:
-            print(f"{readme} has no {START} ... {END} block; not changed", file=sys.stderr)
+        try:
+            write_block(args.readme, None, md)
+        except BlockError as e:
+            print(f"{e}; not changed", file=sys.stderr)
             return 1
-        head, rest = text.split(START, 1)
-        _, tail = rest.split(END, 1)
-        readme.write_text(head + START + "\n" + md + END + tail)
+    if args.docs:
+        import docs  # the documentation pages' figures, with the maps built above
+
+        docs.run(Path(args.docs), args.repeat, maps, d=d)
     return 0
 
 
