@@ -119,14 +119,17 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
 
 
 def rays_of(scans: Sequence[Scan], beams) -> Rays:
-    """All beams of all scans as rays, in time order within each scan's own order."""
+    """All beams of all scans as rays, in time order within each scan's own order.
+
+    Scan.world_angles and Scan.returns, worked out for all the scans' beams at once: the evidence
+    makes the rays of every batch of scans three or four times."""
     pose = np.array([s.pose for s in scans], dtype=np.float64).reshape(-1, 3)
     t = np.array([s.timestamp for s in scans], dtype=np.float64)
-    ang = np.concatenate([s.world_angles() for s in scans])
+    per_scan = np.array([len(s.ranges) for s in scans], dtype=np.int64)
+    ang = np.repeat(pose[:, 2], per_scan) + np.concatenate([s.bearings for s in scans])
     length = np.concatenate([f for f, _ in beams])
     r = np.concatenate([s.ranges for s in scans])
-    hit = np.concatenate([s.returns for s in scans])
-    per_scan = np.array([len(s.ranges) for s in scans], dtype=np.int64)
+    hit = (r < np.repeat([s.max_range for s in scans], per_scan)) & (r > 0)
     return Rays(pose[:, 0].copy(), pose[:, 1].copy(), np.cos(ang), np.sin(ang), length, t, hit, r, per_scan)
 
 
