@@ -488,6 +488,25 @@ def test_odometry_and_static_tf_place_the_laser_together(tmp_path):
     assert any("odometry /odom (odom -> base_link) and tf to laser" in n for n in report.notes)
 
 
+def test_odometry_places_a_laser_whose_mount_is_republished_on_tf(tmp_path):
+    # ROS 1's tf static_transform_publisher sends base_link -> laser on /tf every 100 ms: a
+    # moving edge of tf that places the laser on the robot, not the robot in the world. Before,
+    # "tf moves the laser frame" chose tf alone and every scan sat at the mount, 0.5 m from base_link
+    b = Bag(tmp_path / "m.bag")
+    for k in range(31):
+        b.tf(0.9 + 0.1 * k, "base_link", "laser", 0.5, 0.0, 0.0)
+    b.odom(1.0, 3.0, 1.0, math.pi / 2)
+    b.odom(3.0, 5.0, 1.0, 0.0)
+    b.scan(1.0, [1.0, 2.0])
+    b.scan(3.0, [1.0, 2.0])
+    b.close()
+    report = ReadReport()
+    s1, s2 = read_rosbag(tmp_path / "m.bag", report=report)
+    np.testing.assert_allclose(s1.pose, [3.0, 1.5, math.pi / 2], atol=1e-12)
+    np.testing.assert_allclose(s2.pose, [5.5, 1.0, 0.0], atol=1e-12)
+    assert any("odometry /odom (odom -> base_link) and tf to laser" in n for n in report.notes)
+
+
 def test_frame_ids_with_a_leading_slash_and_a_stamp_of_zero(tmp_path):
     # ROS 1 frame ids may start with "/"; a header stamp of zero means "not stamped": the record time
     b = Bag(tmp_path / "z.bag")

@@ -26,8 +26,9 @@ outside the span of a moving transform has no pose.
 
 Topics are chosen automatically when there is exactly one candidate; otherwise the caller names
 one and the error lists the candidates. Without ``odom_topic``, tf is used when it moves the
-laser frame; otherwise the single odometry topic. A laser frame the tf tree does not know is
-taken to sit on the odometry's child frame (noted in the report).
+laser frame and reaches above the robot (a chain that stops at odometry's child frame only says
+where the laser sits on the robot); otherwise the single odometry topic. A laser frame the tf
+tree does not know is taken to sit on the odometry's child frame (noted in the report).
 """
 
 from __future__ import annotations
@@ -403,7 +404,12 @@ def _place(path, raws, scan_topic, tf_tracks, odom, odom_topic, tolerance, fixed
 def _pose_chain(path, frame, tf_tracks, odom, odom_topic, fixed_frame, report) -> tuple[list[Track], str]:
     """The transforms that place ``frame``, and a phrase saying where they came from."""
     chain = _chain(frame, tf_tracks, fixed_frame)
-    if odom_topic is None and any(not tr.static for tr in chain):
+    # tf places the laser in the world only if its chain climbs above the robot: one that stops at
+    # odometry's child frame (a mount republished on /tf, as ROS 1's tf static_transform_publisher
+    # does) says where the laser sits on the robot, and odometry where the robot is
+    root = chain[-1].parent if chain else frame
+    on_robot = any(child == root for streams in odom.values() for (_, child) in streams)
+    if odom_topic is None and any(not tr.static for tr in chain) and not on_robot:
         return chain, "tf (" + " <- ".join([chain[-1].parent] + [tr.child for tr in reversed(chain)]) + ")"
     if not odom:
         raise ScanFormatError(path, None, f"no pose for laser frame {frame!r}: no nav_msgs/Odometry topic, and tf "
