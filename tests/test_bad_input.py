@@ -500,6 +500,31 @@ def test_csv_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
     assert capsys.readouterr().out.splitlines()[-1].startswith("7.0,8.0,")
 
 
+def test_geojson_and_map_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
+    # before: the map commands read a map file with the mark, but fuzzify, simulate and demo
+    # refused a floor plan saved with it (Windows editors, some GIS exports): "not valid JSON
+    # (Unexpected UTF-8 BOM ...)"; fuzzify of such a map file took it for GeoJSON and said the same
+    from fuzzybrep.world import Route, World
+
+    room = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
+                                                           "coordinates": [[[0, 0], [10, 0], [10, 6], [0, 6], [0, 0]]]}},
+        {"type": "Feature", "properties": {"role": "route"},
+         "geometry": {"type": "LineString", "coordinates": [[1, 1], [9, 1], [9, 5]]}}]}
+    plan = tmp_path / "plan.geojson"
+    plan.write_text(BOM + json.dumps(room), encoding="utf-8")
+    assert cli.main(["fuzzify", str(plan), "--tme", "0.2", "--out", str(tmp_path / "f.json")]) == 0
+    assert read_map(tmp_path / "f.json").crisp.area == 60.0
+    assert World.from_geojson(plan).free.area == 60.0
+    assert Route.from_file(plan).waypoints.tolist() == [[1, 1], [9, 1], [9, 5]]
+    m = tmp_path / "m.json"
+    square_map(m)
+    bom = tmp_path / "bom.json"
+    bom.write_text(BOM + m.read_text(encoding="utf-8"), encoding="utf-8")
+    assert cli.main(["fuzzify", str(bom), "--tme", "0.2", "--out", str(tmp_path / "g.json")]) == 0
+    assert read_map(tmp_path / "g.json").crisp.area == read_map(m).crisp.area
+
+
 def test_evaluate_with_a_grid_too_coarse_for_any_free_cell(tmp_path, capsys):
     # before: "free_iou": NaN in --json (not JSON), and "IoU ...: nan" in the text
     log = tmp_path / "a.log"

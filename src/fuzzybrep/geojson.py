@@ -33,7 +33,7 @@ def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
     None: the file's top-level "unit", else metres."""
     path = Path(path)
     try:
-        raw = path.read_text(encoding="utf-8")
+        raw = path.read_text(encoding="utf-8-sig")  # a byte-order mark, as Windows tools write, is no JSON error
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
     try:

@@ -197,7 +197,7 @@ def _feature(geom, props: dict) -> dict:
 def _read_geojson(path: str | os.PathLike) -> tuple[list[tuple[int, dict]], float]:
     """Features as (1-based index, {"geometry": shapely, "properties": dict}) and the unit scale."""
     try:
-        doc = loads_json(Path(path).read_text(encoding="utf-8"))
+        doc = loads_json(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is no JSON error
     except OSError as e:
         raise WorldError(f"cannot read: {e.strerror or e}", path) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

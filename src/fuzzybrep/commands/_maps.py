@@ -88,7 +88,7 @@ def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
         crisp = read_map(path).crisp
     elif path.suffix.lower() == ".json":
         try:
-            obj = loads_json(path.read_text(encoding="utf-8"))
+            obj = loads_json(path.read_text(encoding="utf-8-sig"))  # as read_map reads it: a byte-order mark is allowed
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
