@@ -506,6 +506,22 @@ def test_save_and_load_round_trip(tmp_path):
         np.testing.assert_array_equal(back.vertex_table(0)[k], fz.vertex_table(0)[k])
 
 
+@pytest.mark.parametrize("poses, words", [
+    ([[0.0, 0.0, 0.5]], r"poses must be rows of x, y, heading, time; got shape \(1, 3\)"),  # Scan.pose alone
+    ([[0.0, 0.0, 0.5, math.nan]], r"poses row 1 is not finite"),
+    ([[0.0, 0.0, 0.5, "t"]], "could not convert string to float"),
+])
+def test_save_refuses_poses_its_map_file_could_not_hold(tmp_path, poses, words):
+    # before: save wrote them, and every reader then refused the file it had just written
+    # ("malformed map: scans.poses must be rows of x, y, heading, time")
+    fz = fuzzify(square())
+    with pytest.raises(ValueError, match=words):
+        fz.save(tmp_path / "m.json", poses=poses)
+    assert not (tmp_path / "m.json").exists()
+    fz.save(tmp_path / "m.json", poses=[[0.0, 0.0, 0.5, 10.0]])
+    assert FuzzyBRepMap.load(tmp_path / "m.json").crisp.equals_exactly(fz.crisp)
+
+
 def test_loading_a_crisp_map_needs_a_tme(tmp_path):
     write_map(tmp_path / "crisp.json", MapFile(square()))
     with pytest.raises(MapFileError, match="no membership-function table"):

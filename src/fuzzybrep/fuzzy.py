@@ -753,7 +753,8 @@ class FuzzyBRepMap:
         return MapFile(self.crisp, self.table.to_dicts(), poses, dict(metadata or {}))
 
     def save(self, path: str | os.PathLike, poses: np.ndarray | None = None, metadata: dict | None = None) -> int:
-        """Write atomically; returns bytes written."""
+        """Write atomically; returns bytes written. ``poses``: rows of x, y, heading, time, one per
+        scan (the viewer draws them); ValueError for others, before anything is written."""
         return write_map(path, self.to_mapfile(poses, metadata))
 
     @classmethod

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -149,13 +149,13 @@ def from_json(d: dict, path: str | os.PathLike = "<map>") -> MapFile:
     return MapFile(crisp, mfs, poses, meta)
 
 
-def _poses(rows) -> np.ndarray:
+def _poses(rows, name: str = "scans.poses") -> np.ndarray:
     p = np.asarray(rows, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 4:
-        raise ValueError(f"scans.poses must be rows of x, y, heading, time; got shape {p.shape}")
+        raise ValueError(f"{name} must be rows of x, y, heading, time; got shape {p.shape}")
     bad = ~np.isfinite(p).all(axis=1)
     if bad.any():
-        raise ValueError(f"scans.poses row {int(np.argmax(bad)) + 1} is not finite: {p[int(np.argmax(bad))].tolist()}")
+        raise ValueError(f"{name} row {int(np.argmax(bad)) + 1} is not finite: {p[int(np.argmax(bad))].tolist()}")
     return p
 
 
@@ -171,8 +171,12 @@ def check_map(crisp: BRepMap, path: str | os.PathLike) -> None:
 
 
 def write_map(path: str | os.PathLike, m: MapFile) -> int:
-    """Write atomically (temporary file in the same folder, then rename); returns bytes written."""
+    """Write atomically (temporary file in the same folder, then rename); returns bytes written.
+    ValueError, before anything is written, for poses ``read_map`` would refuse (not rows of x, y,
+    heading, time, or not finite): the file must read back."""
     path = Path(path)
+    if m.poses is not None:
+        m = replace(m, poses=_poses(m.poses, "poses"))
     data = json.dumps(to_json(m), separators=(",", ":")).encode()
     return write_atomic(path, data)
 
