@@ -69,3 +69,18 @@ def test_problems_finds_a_block_inside_another_and_a_stray_end():
     assert problems(f"{start_a}\n{end_a}\n{end_b}\n")
     assert problems(f"{start_a}\n{end_a}\n{start_b}\n{end_b}\n") == []
 
+
+
+def test_every_option_of_every_command_is_in_the_readme_or_docs():
+    # before: build's --no-evidence, --no-clear, --min-hole-area, --simplify and --quiet, and
+    # grid's --quiet, were in --help only
+    from fuzzybrep import cli
+
+    import re
+
+    text = "".join(p.read_text(encoding="utf-8") for p in PAGES)
+    sub = next(a for a in cli.parser()._actions if a.dest == "command")
+    missing = [f"{name} {opt}" for name, sp in sub.choices.items() for a in sp._actions
+               for opt in a.option_strings if opt not in ("-h", "--help")
+               and not re.search(rf"(?<![\w-]){opt}(?![\w-])", text)]
+    assert missing == []

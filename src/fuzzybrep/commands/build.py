@@ -34,7 +34,7 @@ def add_arguments(p) -> None:
     p.add_argument("--no-evidence", action="store_true",
                    help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
-    p.add_argument("--min-hole-area", type=non_negative, help="prune holes smaller than this (map unit², default from the config)")
+    p.add_argument("--min-hole-area", type=non_negative, help="drop holes of at most this area (map unit², default 0: only those simplification leaves without area)")
     p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default TME/4)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M)
