@@ -321,6 +321,21 @@ def test_csv_writer_refuses_mixed_max_ranges_and_writes_atomically(tmp_path, mon
     assert p.read_bytes() == before and [f.name for f in tmp_path.iterdir()] == ["s.csv"]
 
 
+def test_csv_scans_under_another_name_are_recognised_by_their_first_lines(tmp_path):
+    # before: the format came from the name alone (although detect_format said "and the first
+    # bytes"), so scans.txt, or run.gz from `gzip run.csv && mv`, was "no FLASER scans in this file"
+    scans = [Scan(np.full(11, 2.0), even_bearings(11), (0.0, 0.0, 0.0), 1.0, 8.0, "")]
+    write_csv(tmp_path / "s.csv", scans)
+    text = (tmp_path / "s.csv").read_bytes()
+    (tmp_path / "scans.txt").write_bytes(text)
+    (tmp_path / "run.gz").write_bytes(gzip.compress(text))
+    (tmp_path / "bare.dat").write_bytes(text.split(b"\n", 2)[2])  # no comment lines: the header decides
+    for name in ("scans.txt", "run.gz", "bare.dat"):
+        (s,) = read_scans(tmp_path / name)
+        assert np.array_equal(s.ranges, scans[0].ranges), name
+    assert len(read_scans(write_log(tmp_path / "a.txt", GOOD))) > 0  # a CARMEN log is still one
+
+
 def test_unknown_format_is_refused(tmp_path):
     p = write_log(tmp_path / "a.log", GOOD)
     with pytest.raises(ScanFormatError, match="a.log: unknown scan format 'xml' \\(carmen, csv or rosbag\\)"):

@@ -272,6 +272,20 @@ def test_ros2_storage_file_reads_its_whole_bag(tmp_path, scans, csv_scans, stora
     same_scans(read_scans(path / "metadata.yaml"), csv_scans)
 
 
+def test_ros1_bag_under_another_name_is_recognised_as_a_bag(tmp_path, scans, capsys):
+    # `rosbag record` writes run.bag.active until it stops; before, any name but .bag was read as
+    # a CARMEN log ("no FLASER scans in this file"), and with --format rosbag rosbags said
+    # "Unrecognized storage format '.active'". It reads ROS 1 bags named .bag only: say so
+    path = bag_of(tmp_path / "run.bag", scans)
+    active = tmp_path / "run.bag.active"
+    shutil.copy(path, active)
+    with pytest.raises(ScanFormatError, match=r"run.bag.active: a ROS 1 bag, but one not named \.bag.*link it as "
+                                              r"run\.bag\.active\.bag"):
+        read_scans(active)
+    assert cli.main(["build", str(active), "--out", str(tmp_path / "m.json"), "--format", "rosbag"]) == 2
+    assert "a ROS 1 bag, but one not named .bag" in capsys.readouterr().err
+
+
 def test_build_and_grid_commands_read_bags(tmp_path, scans, capsys):
     path = bag_of(tmp_path / "room.bag", scans)
     assert cli.main(["build", str(path), "--out", str(tmp_path / "m.json"), "--quiet", "--scan-topic", "/scan"]) == 0

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import gzip
 import os
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -61,11 +63,34 @@ def detect_format(path: str | os.PathLike) -> str:
         return "rosbag"
     if name.endswith((".csv", ".csv.gz")):
         return "csv"
+    # any other name: the first bytes (run.bag.active, as rosbag record leaves a cut-off bag;
+    # scans.txt; a CSV gzipped as run.gz)
+    head = first_bytes(p)
+    if head.startswith(b"#ROSBAG V"):
+        return "rosbag"
+    for line in head.decode("utf-8-sig", errors="replace").splitlines():
+        line = line.strip()
+        if line and not line.startswith("#"):  # the first line that is not a comment: a CSV header?
+            return "csv" if {"scan", "bearing", "range"} <= {c.strip().lower() for c in line.split(",")} else "carmen"
     return "carmen"
 
 
+def first_bytes(path: Path, size: int = 65536) -> bytes:
+    """The first bytes of a file, gunzipped if it is gzip; b"" if it cannot be read (the reader says why)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(size)
+        if head[:2] == b"\x1f\x8b":
+            with gzip.open(path, "rb") as f:
+                head = f.read(size)
+        return head
+    except (OSError, EOFError, zlib.error):
+        return b""
+
+
 def read_scans(path: str | os.PathLike, fmt: str | None = None, report: ReadReport | None = None, **kw):
-    """Scans from a CARMEN log, a CSV scan file or a ROS bag (format from the name unless given)."""
+    """Scans from a CARMEN log, a CSV scan file or a ROS bag (format from the name, else from the
+    first bytes, unless given)."""
     fmt = fmt or detect_format(path)
     if not Path(path).exists():
         raise ScanFormatError(path, None, "no such file")

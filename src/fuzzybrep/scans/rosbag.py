@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BagMessageError, BagValueError, FuzzyBrepError, ScanFormatError
-from .read import ReadReport
+from .read import ReadReport, first_bytes
 from .scan import Scan
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
@@ -161,6 +161,10 @@ def _open(path: Path):
     from rosbags.typesys import Stores, get_typestore
 
     paths = _bag_paths(path)
+    if paths[0].is_file() and paths[0].suffix != ".bag" and first_bytes(paths[0]).startswith(b"#ROSBAG V"):
+        # rosbags tells ROS 1 from ROS 2 by the suffix alone ("Unrecognized storage format '.active'")
+        raise ScanFormatError(path, None, "a ROS 1 bag, but one not named .bag, which the bag reader needs: "
+                                          f"rename it, or link it as {paths[0].name}.bag")
     # a ROS 2 bag from before Iron stores no message definitions: read it with the standard ones
     store = get_typestore(Stores.ROS1_NOETIC if paths[0].suffix == ".bag" else Stores.ROS2_HUMBLE)
     return AnyReader(paths, default_typestore=store)
