@@ -146,6 +146,20 @@ def test_carmen_truncated_gzip_is_an_error_unless_skipping(tmp_path):
     assert max(int(s.source.rsplit(":", 1)[1]) for s in scans) < e.value.line
 
 
+@pytest.mark.parametrize("name", ["bad.log.gz", "bad.csv.gz"])
+def test_gzip_with_corrupt_compressed_data_is_an_error_not_a_traceback(tmp_path, name):
+    # a damaged block inside the stream (not a cut-off end): before, zlib.error ("invalid block
+    # type", "invalid distance too far back") escaped as a traceback, with --skip-bad too
+    good = gzip.compress("".join(GOOD * 50).encode())
+    p = tmp_path / name
+    p.write_bytes(good + good[:10] + b"\xff" * 64)  # a second gzip member whose data is no deflate stream
+    with pytest.raises(ScanFormatError, match="truncated or corrupt"):
+        read_scans(p)
+    if name.endswith(".log.gz"):  # CARMEN keeps what came before the damage when asked to skip
+        report = ReadReport()
+        assert len(read_scans(p, skip_bad=True, report=report)) > 0 and report.skipped == 1
+
+
 def test_carmen_pose_is_the_laser_pose_not_the_odometry(tmp_path):
     # FLASER n r_1 ... r_n  x y theta  odom_x odom_y odom_theta  timestamp host logger_timestamp
     p = write_log(tmp_path / "a.log", ["FLASER 3 1.0 2.0 3.0 1.5 2.5 0.25 7.0 8.0 -1.0 12.5 host 99.0\n"])

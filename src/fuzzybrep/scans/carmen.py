@@ -15,6 +15,7 @@ from __future__ import annotations
 import gzip
 import io
 import os
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -116,8 +117,9 @@ def read_carmen(
                     report.skip(err)
                     continue
                 rows.append((r, pose, t, lineno))
-    except (EOFError, gzip.BadGzipFile, OSError) as e:
-        # a cut-off gzip stream: everything before the cut is kept only if the caller asked to skip
+    except (EOFError, gzip.BadGzipFile, OSError, zlib.error) as e:
+        # a cut-off gzip stream, or a damaged block in it (zlib.error is no OSError): everything
+        # before the damage is kept only if the caller asked to skip
         err = ScanFormatError(path, lineno + 1, f"file is truncated or corrupt ({e})")
         if not skip_bad:
             raise err from None

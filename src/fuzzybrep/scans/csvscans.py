@@ -22,6 +22,7 @@ import gzip
 import io
 import os
 import re
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +44,7 @@ def _read_text(path: Path) -> str:
     if raw[:2] == b"\x1f\x8b":
         try:
             raw = gzip.decompress(raw)
-        except (EOFError, OSError) as e:
+        except (EOFError, OSError, zlib.error) as e:  # zlib.error: a damaged block, no OSError
             raise ScanFormatError(path, None, f"gzip stream is truncated or corrupt ({e})") from None
     # utf-8-sig: a spreadsheet's "CSV UTF-8" starts with a byte-order mark, which would be read
     # as part of the first column's name
