@@ -134,14 +134,10 @@ def rays_of(scans: Sequence[Scan], beams) -> Rays:
 
 
 def ray_batches(scans: Sequence[Scan], beams, cfg: evidence.EvidenceConfig) -> evidence.RayBatches:
-    """The rays of consecutive scans, about four of ``cfg.chunk``'s samples a batch (a scan is never
-    split; a few chunks a batch make a batch's own arrays count for little), each batch made by
-    ``rays_of`` when the evidence asks for it."""
-    samples = np.array([np.ceil(np.maximum(f, 0) / cfg.step).sum() + len(f) for f, _ in beams])
-    size = cfg.chunk
-    cut = np.searchsorted(np.cumsum(samples), np.arange(size, samples.sum() + size, size), "right")
-    bounds = np.unique(np.r_[0, np.minimum(cut, len(scans)), len(scans)])
-    bounds = [int(b) for b in bounds]
+    """The rays of consecutive scans, about ``cfg.chunk`` samples of them a batch (a scan is never
+    split), each batch made by ``rays_of`` when the evidence asks for it."""
+    samples = np.array([evidence.ray_samples(f, cfg.step).sum() for f, _ in beams])
+    bounds = [lo for lo, _ in evidence.chunk_bounds(samples, cfg.chunk)] + [len(scans)]
 
     def make(i: int) -> Rays:
         return rays_of(scans[bounds[i] : bounds[i + 1]], beams[bounds[i] : bounds[i + 1]])
@@ -151,10 +147,12 @@ def ray_batches(scans: Sequence[Scan], beams, cfg: evidence.EvidenceConfig) -> e
 
 
 def check_extent(scans: Sequence[Scan], rays: "Rays | evidence.RayBatches", cell: float, unit: str = "m"):
-    """The evidence grid's frame (``evidence.grid_frame``) over ``rays``, or a ScanValueError naming the scan (and the beam) that lies farthest out when the evidence grid
-    over ``rays`` would hold more than evidence.MAX_CELLS cells (farthest from the median scan
-    position), or reach beyond evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a
-    corrupt range or pose otherwise ended in NumPy failing to allocate terabytes, or an IndexError."""
+    """The evidence grid's frame (``evidence.grid_frame``) over ``rays``, for ``evidence.gather``.
+
+    ScanValueError naming the scan (and the beam) that lies farthest out when the grid would hold
+    more than evidence.MAX_CELLS cells (farthest from the median scan position), or reach beyond
+    evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a corrupt range or pose otherwise
+    ended in NumPy failing to allocate terabytes, or an IndexError."""
     frame = origin, nx, ny = evidence.grid_frame(rays, cell)
     reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
     if nx * ny > evidence.MAX_CELLS:

@@ -147,6 +147,9 @@ class RayBatches:
             raise IndexError(i)
         return self.make(i)
 
+    def __iter__(self):
+        return map(self.make, range(self.count))
+
 
 def batched(rays: "Rays | RayBatches") -> RayBatches:
     """Rays held all at once as one batch; batches as they are."""
@@ -227,17 +230,27 @@ def _cells_of(g, nx: int, ray: np.ndarray, k: np.ndarray) -> np.ndarray:
     return cy * np.int32(nx) + cx
 
 
-def _chunks(length: np.ndarray, cfg: EvidenceConfig):
-    """Ray index ranges whose samples fit in one chunk."""
-    per_ray = np.ceil(np.maximum(length, 0) / cfg.step) + 1
-    cum = np.cumsum(per_ray)
-    bounds = np.searchsorted(cum, np.arange(cfg.chunk, cum[-1] + cfg.chunk, cfg.chunk)) if len(cum) else []
+def ray_samples(length: np.ndarray, step: float) -> np.ndarray:
+    """What sampling rays of these lengths costs, ray by ray: their samples, and one for the ray."""
+    return np.ceil(np.maximum(length, 0) / step) + 1
+
+
+def chunk_bounds(samples: np.ndarray, size: int):
+    """Index ranges [lo, hi) of consecutive items (rays, or scans) of about ``size`` samples each
+    (``samples``: per item): a range runs up to and with the item that crosses a multiple of size."""
+    cum = np.cumsum(samples)
+    bounds = np.searchsorted(cum, np.arange(size, cum[-1] + size, size)) if len(cum) else []
     lo = 0
-    for b in list(bounds) + [len(per_ray)]:
-        hi = min(int(b) + 1, len(per_ray))
+    for b in list(bounds) + [len(samples)]:
+        hi = min(int(b) + 1, len(samples))
         if hi > lo:
             yield lo, hi
             lo = hi
+
+
+def _chunks(length: np.ndarray, cfg: EvidenceConfig):
+    """Ray index ranges whose samples fit in one chunk."""
+    return chunk_bounds(ray_samples(length, cfg.step), cfg.chunk)
 
 
 def _parallel(fn, jobs):
