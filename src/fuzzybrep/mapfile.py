@@ -274,6 +274,11 @@ def read_map(path: str | os.PathLike) -> MapFile:
         raw = path.read_bytes()
     except OSError as e:
         raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    return map_from_bytes(raw, path)
+
+
+def map_from_bytes(raw: bytes, path: str | os.PathLike = "<map>") -> MapFile:
+    """``read_map`` of a file's bytes already read; MapFileError names ``path``."""
     from .compact import MAGIC, compact_from_bytes  # here: compact builds on this module
 
     if raw.startswith(MAGIC):  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"

@@ -11,7 +11,7 @@ from ..compact import MAGIC
 from ..errors import MapFileError, MembershipFunctionError
 from ..fuzzy import FuzzyBRepMap, fuzzify
 from ..geojson import read_geojson
-from ..mapfile import FORMAT, MapFile, from_json, loads_json, read_map
+from ..mapfile import FORMAT, MapFile, from_json, loads_json, map_from_bytes, read_map
 from ..membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
@@ -83,13 +83,17 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
 def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
     """A crisp map from GeoJSON, or from a fuzzybrep map file or compact map (its crisp part)."""
     path = Path(path)
+    try:
+        raw = path.read_bytes()  # once: a map file is decoded from these bytes
+    except OSError:
+        return read_geojson(path, unit)  # which says why the file cannot be read
     crisp = None
-    if _is_compact(path):
-        crisp = read_map(path).crisp
+    if raw.startswith(MAGIC):
+        crisp = map_from_bytes(raw, path).crisp
     elif path.suffix.lower() == ".json":
         try:
-            obj = loads_json(path.read_text(encoding="utf-8-sig"))  # as read_map reads it: a byte-order mark is allowed
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            obj = loads_json(raw)  # as read_map reads it: a byte-order mark is allowed
+        except (UnicodeDecodeError, json.JSONDecodeError):
             obj = None
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
             crisp = from_json(obj, path).crisp
@@ -98,14 +102,6 @@ def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
     # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
     # frontier index 2 would have no function in a new one-function table
     return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
-
-
-def _is_compact(path: Path) -> bool:
-    try:
-        with open(path, "rb") as f:
-            return f.read(len(MAGIC)) == MAGIC
-    except OSError:
-        return False  # read_geojson says why it cannot be read
 
 
 __all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "mf_from_args",
