@@ -80,8 +80,17 @@ def pct(x: float, digits: int = 1) -> str:
 class Context:
     """What the pages share: the datasets, the timing repeat, and the real-log maps (built once)."""
 
-    def __init__(self, d: Path | None, repeat: int, maps: dict | None = None):
-        self.d, self.repeat, self.maps = d, repeat, dict(maps or {})
+    def __init__(self, d: Path | None, repeat: int, maps: dict | None = None, demo_runs: list | None = None):
+        self.d, self.repeat, self.maps, self.runs = d, repeat, dict(maps or {}), demo_runs
+
+    def demo_runs(self) -> list:
+        """The built-in demo for every seed of SEEDS (run.py's, when it gives them)."""
+        if self.runs is None:
+            from fuzzybrep import demo
+            from fuzzybrep.world import builtin_floor, builtin_route
+
+            self.runs = [demo.run_demo(builtin_floor(), builtin_route(), seed=s) for s in SEEDS]
+        return self.runs
 
     def map(self, name: str):
         """The fuzzy map of a CARMEN log as ``fuzzybrep build`` makes it (default settings)."""
@@ -136,9 +145,9 @@ def demo_blocks(ctx: Context, page: Path) -> dict[str, str]:
     from fuzzybrep import demo
     from fuzzybrep.localise import MODELS, pose_errors, scan_poses
     from fuzzybrep.truth import length_inside
-    from fuzzybrep.world import Route, World, builtin_floor, builtin_route
+    from fuzzybrep.world import Route, World
 
-    runs = [demo.run_demo(builtin_floor(), builtin_route(), seed=s) for s in SEEDS]
+    runs = ctx.demo_runs()
 
     # seed 0's scans under each pose model
     r0 = runs[0]
@@ -287,10 +296,10 @@ NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md"}
 
 
 def run(docs: Path, repeat: int = 3, maps: dict | None = None, only: list[str] | None = None,
-        d: Path | None = None) -> dict[str, float]:
+        d: Path | None = None, demo_runs: list | None = None) -> dict[str, float]:
     """Measure and write the blocks of every page (or of ``only``, page names without .md). Returns
-    the seconds each page took."""
-    ctx = Context(d if d is not None else datasets(), repeat, maps)
+    the seconds each page took. ``maps`` and ``demo_runs``: what run.py already built, not built again."""
+    ctx = Context(d if d is not None else datasets(), repeat, maps, demo_runs)
     seconds = {}
     for page in PAGES:
         make = MAKERS[page]

@@ -170,29 +170,37 @@ def bench_scaling(path: Path, repeat: int) -> list[dict]:
     return out
 
 
-def demo_md(seeds: int = 10) -> str:
-    """The built-in demo (the thesis's chapter 5 on a simulated E1 floor): seed 0's summary and the
-    Done-when criteria over ``seeds`` seeds, for the exact and the sweep α-cut."""
+def demo_runs(seeds: int = 10) -> tuple[list, float]:
+    """The built-in demo (the thesis's chapter 5 on a simulated E1 floor) for seeds 0 to seeds - 1,
+    and the seconds seed 0's run took (its summary says them); docs.py's demo blocks use the same runs."""
     from fuzzybrep import demo
     from fuzzybrep.world import builtin_floor, builtin_route
 
     t = time.perf_counter()
-    r0 = demo.run_demo(builtin_floor(), builtin_route(), seed=0)
-    lines = demo.summary(r0, None, time.perf_counter() - t)
+    runs = [demo.run_demo(builtin_floor(), builtin_route(), seed=0)]
+    seconds = time.perf_counter() - t
+    runs += [demo.run_demo(builtin_floor(), builtin_route(), seed=seed) for seed in range(1, seeds)]
+    return runs, seconds
+
+
+def demo_md(runs: list, seconds: float) -> str:
+    """Seed 0's summary and the Done-when criteria over all ``runs``, for the exact and the sweep α-cut."""
+    from fuzzybrep import demo
+
+    lines = demo.summary(runs[0], None, seconds)
     rows = ["| seed | exact: seen wall in support | exact: wall in safe region | boundary within TME | "
             "sweep: seen wall in support | sweep: wall in safe region | all three (exact) |",
             "|---:|---:|---:|---:|---:|---:|:---:|"]
     passed = 0
-    for seed in range(seeds):
-        r = r0 if seed == 0 else demo.run_demo(builtin_floor(), builtin_route(), seed=seed)
+    for r in runs:
         e, w = r.maps["filtered"].truth["exact"], r.maps["filtered"].truth["sweep"]
         ok = e.support_coverage >= 0.99 and e.unsafe_wall_length == 0 and e.boundary_within_tme >= 0.9
         passed += ok
-        rows.append(f"| {seed} | {pct(e.support_coverage)} | {e.unsafe_wall_length:.2f} m | {pct(e.boundary_within_tme)} | "
+        rows.append(f"| {r.seed} | {pct(e.support_coverage)} | {e.unsafe_wall_length:.2f} m | {pct(e.boundary_within_tme)} | "
                     f"{pct(w.support_coverage)} | {w.unsafe_wall_length:.2f} m | {'yes' if ok else 'no'} |")
     return "\n".join(["**The built-in demo** (`fuzzybrep demo`; seed 0's summary, figures skipped)", "", "```", *lines,
-                      "```", "", f"The Done-when criteria over {seeds} seeds (filtered map): all three hold with the "
-                      f"exact α-cut in {passed} of {seeds}.", "", *rows])
+                      "```", "", f"The Done-when criteria over {len(runs)} seeds (filtered map): all three hold with the "
+                      f"exact α-cut in {passed} of {len(runs)}.", "", *rows])
 
 
 def pct(x: float) -> str:
@@ -305,11 +313,11 @@ def main(argv=None) -> int:
     scaling = [] if args.no_scaling else bench_scaling(largest[1], args.repeat)
     from alpha_cut import run as alpha_run  # the α-cut benchmark, on the largest map
 
-    _, r, fz, _ = pipeline(largest[1], BuildConfig())
-    alpha_md = alpha_run(fz, [0.0, 0.25, 0.5, 0.75, 1.0], args.repeat, f"{largest[0]} map")
+    alpha_md = alpha_run(maps[largest[0]], [0.0, 0.25, 0.5, 0.75, 1.0], args.repeat, f"{largest[0]} map")
     env = {"when": time.strftime("%Y-%m-%d"), "machine": platform.machine(), "cpus": os.cpu_count(),
            "python": platform.python_version(), "geos": shapely.geos_version_string, "repeat": args.repeat}
-    md = markdown(results, scaling, alpha_md, env, demo_md())
+    runs, seconds = demo_runs()
+    md = markdown(results, scaling, alpha_md, env, demo_md(runs, seconds))
     Path(args.out).write_text(md)
     Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling}, indent=1, default=float))
     print(md)
@@ -322,7 +330,7 @@ def main(argv=None) -> int:
     if args.docs:
         import docs  # the documentation pages' figures, with the maps built above
 
-        docs.run(Path(args.docs), args.repeat, maps, d=d)
+        docs.run(Path(args.docs), args.repeat, maps, d=d, demo_runs=runs)
     return 0
 
 
