@@ -36,9 +36,10 @@ import shapely
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from fuzzybrep.brep import BRepMap  # noqa: E402
-from fuzzybrep.fuzzy import FuzzyBRepMap, approximation_error, error_table_markdown, fuzzify  # noqa: E402
-from fuzzybrep.mapfile import write_atomic  # noqa: E402
-from fuzzybrep.membership import DEFAULT_TME_M  # noqa: E402
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, fuzzify
+from fuzzybrep.fuzzy.accuracy import approximation_error, error_table_markdown  # noqa: E402
+from fuzzybrep.formats.files import write_atomic  # noqa: E402
+from fuzzybrep.fuzzy.membership import DEFAULT_TME_M  # noqa: E402
 
 
 def synthetic_map(seed: int = 0, width: float = 120.0, height: float = 60.0, obstacles: int = 600,

@@ -86,8 +86,8 @@ class Context:
     def demo_runs(self) -> list:
         """The built-in demo for every seed of SEEDS (run.py's, when it gives them)."""
         if self.runs is None:
-            from fuzzybrep import demo
-            from fuzzybrep.world import builtin_floor, builtin_route
+            from fuzzybrep.sim import demo
+            from fuzzybrep.sim.world import builtin_floor, builtin_route
 
             self.runs = [demo.run_demo(builtin_floor(), builtin_route(), seed=s) for s in SEEDS]
         return self.runs
@@ -95,8 +95,8 @@ class Context:
     def map(self, name: str):
         """The fuzzy map of a CARMEN log as ``fuzzybrep build`` makes it (default settings)."""
         if name not in self.maps:
-            from fuzzybrep.build import BuildConfig, build_map
-            from fuzzybrep.fuzzy import fuzzify
+            from fuzzybrep.mapping.build import BuildConfig, build_map
+            from fuzzybrep.fuzzy.map import fuzzify
             from fuzzybrep.scans.read import read_scans
 
             if self.d is None or not (self.d / LOGS[name]).is_file():
@@ -124,7 +124,7 @@ def grid_blocks(ctx: Context) -> dict[str, str]:
 def fuzzy_blocks(ctx: Context) -> dict[str, str]:
     import alpha_cut
     import exact_cut
-    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.fuzzy.map import fuzzify
 
     alphas = [0.0, 0.25, 0.5, 0.75, 1.0]
     floors = {j: fuzzify(alpha_cut.synthetic_map(0, jagged=j)) for j in (True, False)}
@@ -142,10 +142,10 @@ def fuzzy_blocks(ctx: Context) -> dict[str, str]:
 
 
 def demo_blocks(ctx: Context, page: Path) -> dict[str, str]:
-    from fuzzybrep import demo
-    from fuzzybrep.localise import MODELS, pose_errors, scan_poses
-    from fuzzybrep.truth import length_inside
-    from fuzzybrep.world import Route, World
+    from fuzzybrep.sim import demo
+    from fuzzybrep.sim.pose_error import MODELS, pose_errors, scan_poses
+    from fuzzybrep.sim.truth import length_inside
+    from fuzzybrep.sim.world import Route, World
 
     runs = ctx.demo_runs()
 
@@ -222,8 +222,8 @@ def demo_blocks(ctx: Context, page: Path) -> dict[str, str]:
 
 
 def simulator_blocks(ctx: Context) -> dict[str, str]:
-    from fuzzybrep.simulate import DiffDrive, Laser, simulate_run
-    from fuzzybrep.world import builtin_floor, builtin_route
+    from fuzzybrep.sim.simulate import DiffDrive, Laser, simulate_run
+    from fuzzybrep.sim.world import builtin_floor, builtin_route
 
     world, route = builtin_floor(), builtin_route()
     stops = route.stop_distances()
@@ -256,7 +256,7 @@ def simulator_blocks(ctx: Context) -> dict[str, str]:
 
 
 def export_blocks(ctx: Context) -> dict[str, str]:
-    from fuzzybrep.export import membership_raster, write_ros
+    from fuzzybrep.formats.export import membership_raster, write_ros
 
     fz = ctx.map("intel")
     r = membership_raster(fz, 0.05, "exact")

@@ -33,16 +33,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from alpha_cut import best, synthetic_map  # noqa: E402
 from fuzzybrep.brep import Ring  # noqa: E402
-from fuzzybrep.fuzzy import EXACT_QUAD_SEGS, FuzzyBRepMap, fuzzify  # noqa: E402
-from fuzzybrep.mapfile import write_atomic  # noqa: E402
-from fuzzybrep.membership import Triangular  # noqa: E402
-from fuzzybrep.sweep import clean, polygonal  # noqa: E402
+from fuzzybrep.fuzzy.exact import EXACT_QUAD_SEGS, cut_distances  # noqa: E402
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, fuzzify  # noqa: E402
+from fuzzybrep.formats.files import write_atomic  # noqa: E402
+from fuzzybrep.fuzzy.membership import Triangular  # noqa: E402
+from fuzzybrep.geometry import clean, polygonal  # noqa: E402
 
 
 def former_cut(fz: FuzzyBRepMap, alpha: float, quad_segs: int = EXACT_QUAD_SEGS) -> tuple:
     """(inner, outer) as ``alpha_cut(α, "exact")`` computed them before the ring-by-ring cut."""
     crisp = fz.crisp_geometry
-    symmetric, sided = fz._cut_distances(alpha)
+    symmetric, sided = cut_distances(fz, alpha)
     ds = {d for _, d in symmetric}
     if not sided and len(ds) == 1:
         d = ds.pop()
@@ -60,7 +61,7 @@ def former_cut(fz: FuzzyBRepMap, alpha: float, quad_segs: int = EXACT_QUAD_SEGS)
         wide = shapely.buffer(shapely.multilinestrings(g["lines"][order], indices=idx[order]), max(d_in, d_out),
                               quad_segs=quad_segs)
         cut = shapely.intersection if d_in > d_out else shapely.difference
-        parts.extend(cut(wide, fz._ring_polygons[rings]))
+        parts.extend(cut(wide, fz.ring_polygons[rings]))
     if not parts:
         return crisp, crisp
     band = shapely.union_all(parts)

@@ -28,9 +28,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from fuzzybrep.grid import L_FREE, L_OCC, beams_of, occupancy_grid  # noqa: E402
-from fuzzybrep.mapfile import write_atomic  # noqa: E402
-from fuzzybrep.rosmap import write_grid  # noqa: E402
+from fuzzybrep.mapping.grid import L_FREE, L_OCC, beams_of, occupancy_grid  # noqa: E402
+from fuzzybrep.formats.files import write_atomic  # noqa: E402
+from fuzzybrep.formats.rosmap import write_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 
 LOGS = {"intel": "carmen/intel-corrected.log.gz", "aces": "carmen/aces-corrected.log.gz",

@@ -34,11 +34,11 @@ from fuzzybrep.scans.read import read_scans
 scans = read_scans(sys.argv[1])
 read = peak()
 if sys.argv[2] == "map":
-    from fuzzybrep.build import build_map
+    from fuzzybrep.mapping.build import build_map
     from fuzzybrep.fuzzy import fuzzify
     fuzzify(build_map(scans).crisp)
 else:
-    from fuzzybrep.grid import occupancy_grid
+    from fuzzybrep.mapping.grid import occupancy_grid
     occupancy_grid(scans, 0.05)
 print(read, peak())
 """

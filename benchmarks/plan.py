@@ -25,9 +25,9 @@ import shapely
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from fuzzybrep.fuzzy import FuzzyBRepMap  # noqa: E402
-from fuzzybrep.mapfile import write_atomic  # noqa: E402
-from fuzzybrep.plan import Planner, free_points  # noqa: E402
+from fuzzybrep.fuzzy.map import FuzzyBRepMap  # noqa: E402
+from fuzzybrep.formats.files import write_atomic  # noqa: E402
+from fuzzybrep.use.plan import Planner, free_points  # noqa: E402
 
 
 def timed(f):
@@ -62,7 +62,7 @@ def main(argv=None) -> int:
                     p, t = timed(lambda: pl.plan(s, g))
                     assert pl.covers(p.path)
                     ts.append(t)
-                _, t_medial = timed(lambda: (pl.medial, pl._axis_links))
+                _, t_medial = timed(lambda: (pl.medial, pl.axis_links))
                 tc = []
                 for s, g in zip(pts[: a.pairs], pts[a.pairs:]):
                     p, t = timed(lambda: pl.plan(s, g, "clearance"))

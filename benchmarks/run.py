@@ -49,10 +49,11 @@ import shapely
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from fuzzybrep import evaluate as E  # noqa: E402
-from fuzzybrep.build import BuildConfig, build_map  # noqa: E402
-from fuzzybrep.fuzzy import compact_bytes, fuzzify  # noqa: E402
-from fuzzybrep.grid import occupancy_grid  # noqa: E402
+from fuzzybrep.use import evaluate as E  # noqa: E402
+from fuzzybrep.mapping.build import BuildConfig, build_map  # noqa: E402
+from fuzzybrep.fuzzy.memory import compact_bytes
+from fuzzybrep.fuzzy.map import fuzzify  # noqa: E402
+from fuzzybrep.mapping.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 import peak  # noqa: E402
@@ -173,8 +174,8 @@ def bench_scaling(path: Path, repeat: int) -> list[dict]:
 def demo_runs(seeds: int = 10) -> tuple[list, float]:
     """The built-in demo (the thesis's chapter 5 on a simulated E1 floor) for seeds 0 to seeds - 1,
     and the seconds seed 0's run took (its summary says them); docs.py's demo blocks use the same runs."""
-    from fuzzybrep import demo
-    from fuzzybrep.world import builtin_floor, builtin_route
+    from fuzzybrep.sim import demo
+    from fuzzybrep.sim.world import builtin_floor, builtin_route
 
     t = time.perf_counter()
     runs = [demo.run_demo(builtin_floor(), builtin_route(), seed=0)]
@@ -185,7 +186,7 @@ def demo_runs(seeds: int = 10) -> tuple[list, float]:
 
 def demo_md(runs: list, seconds: float) -> str:
     """Seed 0's summary and the Done-when criteria over all ``runs``, for the exact and the sweep α-cut."""
-    from fuzzybrep import demo
+    from fuzzybrep.sim import demo
 
     lines = demo.summary(runs[0], None, seconds)
     rows = ["| seed | exact: seen wall in support | exact: wall in safe region | boundary within TME | "

@@ -12,8 +12,8 @@ import numpy as np
 import shapely
 
 from fuzzybrep.brep import FRONTIER, BRepMap, Region, Ring
-from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
-from fuzzybrep.membership import Triangular
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, fuzzify
+from fuzzybrep.fuzzy.membership import Triangular
 
 TME = 0.2
 

@@ -6,8 +6,8 @@ import numpy as np
 import shapely
 
 from fuzzybrep.scans.scan import Scan, even_bearings
-from fuzzybrep.simulate import cast_rays
-from fuzzybrep.world import World
+from fuzzybrep.sim.simulate import cast_rays
+from fuzzybrep.sim.world import World
 
 
 def scan_of(free: shapely.Polygon, pose, n: int = 181, fov: float = np.pi, max_range: float = 8.0,

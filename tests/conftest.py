@@ -10,7 +10,7 @@ import pytest
 from hypothesis import settings
 
 from fuzzybrep.cli import main
-from fuzzybrep.fuzzy import FuzzyBRepMap
+from fuzzybrep.fuzzy.map import FuzzyBRepMap
 from fuzzybrep.scans.read import read_scans
 
 REPO = Path(__file__).resolve().parents[1]

@@ -10,8 +10,8 @@ import pytest
 
 from fuzzybrep import cli
 from fuzzybrep.errors import MapFileError
-from fuzzybrep.fuzzy import FuzzyBRepMap
-from fuzzybrep.mapfile import read_map
+from fuzzybrep.fuzzy.map import FuzzyBRepMap
+from fuzzybrep.formats.mapfile import read_map
 
 
 def flaser(ranges, pose=(1.0, 2.0, 0.5), t=10.0) -> str:
@@ -52,7 +52,7 @@ def test_log_where_no_beam_returns_maps_free_space_when_asked(tmp_path):
 
 def square_map(path):
     from fuzzybrep.brep import BRepMap, Region, Ring
-    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.fuzzy.map import fuzzify
 
     fuzzify(BRepMap((Region(Ring([(0, 0), (4, 0), (4, 4), (0, 4)])),)), tme=0.1).save(path, poses=[[1, 1, 0, 0]])
     return json.loads(path.read_text())
@@ -128,7 +128,7 @@ def test_damaged_map_file_names_file_and_place(tmp_path, capsys, what, words):
 def test_a_piece_of_free_space_inside_a_hole_is_a_map(tmp_path):
     # regions may nest (free space inside an obstacle); only overlapping ones are refused
     from fuzzybrep.brep import BRepMap, Region, Ring
-    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.fuzzy.map import fuzzify
 
     hole = Ring([(3, 3), (3, 7), (7, 7), (7, 3)])
     island = Ring([(4, 4), (6, 4), (6, 6), (4, 6)])
@@ -243,7 +243,7 @@ def test_failed_write_keeps_the_old_map_and_leaves_no_temporary(tmp_path, capsys
     def full(fd):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("fuzzybrep.mapfile.os.fsync", full)
+    monkeypatch.setattr("fuzzybrep.formats.files.os.fsync", full)
     fails(capsys, ["build", log, "--out", out, "--quiet", "--tme", "0.5"], "m.json: cannot write: No space left")
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]
@@ -479,9 +479,9 @@ BOM = "\ufeff"  # what a spreadsheet's "CSV UTF-8" puts before the header
 def test_csv_files_with_a_byte_order_mark_are_read(tmp_path, capsys):
     # before: "header lacks column(s) scan" (for a header that has it), "header must be direction,x,y,
     # got '\ufeffdirection,x,y'", "line 1: not a number pair: '\ufeffx,y'"
-    from fuzzybrep.odometry import read_runs
+    from fuzzybrep.sim.umbmark import read_runs
     from fuzzybrep.scans.csvscans import read_csv
-    from fuzzybrep.world import Route
+    from fuzzybrep.sim.world import Route
 
     scans = tmp_path / "s.csv"
     scans.write_text(BOM + "scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n0,0,0,0,0,0.1,1\n", encoding="utf-8")
@@ -504,7 +504,7 @@ def test_geojson_and_map_files_with_a_byte_order_mark_are_read(tmp_path, capsys)
     # before: the map commands read a map file with the mark, but fuzzify, simulate and demo
     # refused a floor plan saved with it (Windows editors, some GIS exports): "not valid JSON
     # (Unexpected UTF-8 BOM ...)"; fuzzify of such a map file took it for GeoJSON and said the same
-    from fuzzybrep.world import Route, World
+    from fuzzybrep.sim.world import Route, World
 
     room = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
@@ -595,7 +595,7 @@ def test_simulate_and_demo_do_not_write_over_their_world_or_route(tmp_path, caps
     # before: `simulate --world w.geojson --world-out w.geojson` rewrote the user's floor plan (its
     # "name" replaced by the file's stem, any other property dropped), `--umbmark-out` could replace
     # the --route file, and `demo --world d/floorplan.geojson --out d` rewrote its own input
-    from fuzzybrep.simulate import builtin_floor, builtin_route
+    from fuzzybrep.sim.simulate import builtin_floor, builtin_route
 
     monkeypatch.chdir(tmp_path)
     world = tmp_path / "w.geojson"

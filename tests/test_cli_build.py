@@ -9,8 +9,8 @@ import shapely
 from _synthetic import l_room, scan_of
 
 from fuzzybrep import cli
-from fuzzybrep.fuzzy import FuzzyBRepMap
-from fuzzybrep.mapfile import read_map
+from fuzzybrep.fuzzy.map import FuzzyBRepMap
+from fuzzybrep.formats.mapfile import read_map
 from fuzzybrep.scans.csvscans import write_csv
 
 
@@ -62,7 +62,7 @@ def test_build_tme_sets_the_vertex_reduction_as_in_evaluate(tmp_path):
     # membership function (evaluate's reached both): a 10 cm notch survived --tme 0.8
     from dataclasses import replace
 
-    from fuzzybrep.build import BuildConfig, build_map
+    from fuzzybrep.mapping.build import BuildConfig, build_map
     from fuzzybrep.scans.csvscans import read_csv
 
     notched = shapely.Polygon([(0, 0), (6, 0), (6, 4), (3.2, 4), (3.2, 4.1), (2.8, 4.1), (2.8, 4), (0, 4)])

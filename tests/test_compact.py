@@ -9,10 +9,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from fuzzybrep import BRepMap, MapFileError, Region, Ring
-from fuzzybrep.compact import (FM_EXPLICIT, FM_FROM_KINDS, decode, decode_varints, encode, encode_varints, fm_from_kinds,
-                               quantised, read_compact, snap_rounded, write_compact)
-from fuzzybrep.fuzzy import FuzzyBRepMap, compact_bytes, fuzzify, validate_map
-from fuzzybrep.membership import Triangular
+from fuzzybrep.formats.compact import (FM_EXPLICIT, FM_FROM_KINDS, decode, decode_varints, encode, encode_varints,
+                                       fm_from_kinds, quantised, read_compact, snap_rounded, write_compact)
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, fuzzify
+from fuzzybrep.fuzzy.memory import compact_bytes
+from fuzzybrep.brep import validate_map
+from fuzzybrep.fuzzy.membership import Triangular
 
 
 @given(st.lists(st.integers(-(2**62), 2**62), max_size=200))

@@ -13,11 +13,11 @@ import pytest
 import shapely
 
 from fuzzybrep import cli
-from fuzzybrep.demo import (MIN_BOUNDARY_WITHIN_TME, MIN_SUPPORT_COVERAGE, build_config, no_return_reach, run_demo)
-from fuzzybrep.fuzzy import FuzzyBRepMap
-from fuzzybrep.localise import pose_errors, relocalised_poses, scan_poses
-from fuzzybrep.simulate import DiffDrive, Laser, Route, World, builtin_floor, builtin_route, simulate_run
-from fuzzybrep.world import Route as WorldRoute
+from fuzzybrep.sim.demo import MIN_BOUNDARY_WITHIN_TME, MIN_SUPPORT_COVERAGE, build_config, no_return_reach, run_demo
+from fuzzybrep.fuzzy.map import FuzzyBRepMap
+from fuzzybrep.sim.pose_error import pose_errors, relocalised_poses, scan_poses
+from fuzzybrep.sim.simulate import DiffDrive, Laser, Route, World, builtin_floor, builtin_route, simulate_run
+from fuzzybrep.sim.world import Route as WorldRoute
 
 FIGURES = ["fig_alpha_stack.png", "fig_support.png", "fig_membership_3d.png", "fig_map_vs_floorplan.png"]
 FILES = ["floorplan.geojson", "map.json", "report.json", *FIGURES]

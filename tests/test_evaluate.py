@@ -9,8 +9,8 @@ import pytest
 import shapely
 from _synthetic import room, scan_of
 
-from fuzzybrep import evaluate as E
-from fuzzybrep.build import BuildConfig
+from fuzzybrep.use import evaluate as E
+from fuzzybrep.mapping.build import BuildConfig
 from fuzzybrep.scans.scan import Scan
 
 
@@ -128,8 +128,8 @@ def test_a_person_the_map_saw_pass_by_stays_a_violation_of_its_own_scans():
     # the floor under held-out violations: the map from all scans drops a person whom later and
     # earlier scans saw through, so the person's own endpoints lie in its free space, and they
     # came and went; the scan that saw the person is neither before nor after itself
-    from fuzzybrep.build import build_map
-    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.mapping.build import build_map
+    from fuzzybrep.fuzzy.map import fuzzify
 
     empty = room(6, 4)
     person = shapely.box(2.8, 1.8, 3.2, 2.2)
@@ -199,7 +199,7 @@ def test_small_objects_are_narrow_nearer_than_both_neighbours_and_not_the_whole_
 
 
 def test_free_space_iou_counts_cells_by_their_centres():
-    from fuzzybrep.grid import OccupancyGrid
+    from fuzzybrep.mapping.grid import OccupancyGrid
 
     lo = np.zeros((4, 4))
     lo[:, :2] = -5.0  # the grid: the left two columns of 1 m cells are free

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
-from fuzzybrep import evidence
-from fuzzybrep import build
-from fuzzybrep.build import BuildConfig, build_map, rays_of
+from fuzzybrep.mapping import evidence
+from fuzzybrep.mapping import build
+from fuzzybrep.mapping.build import BuildConfig, build_map, rays_of
 from fuzzybrep.errors import GeometryError
-from fuzzybrep.polygon import PolygonConfig
+from fuzzybrep.mapping.scan_polygon import PolygonConfig
 from fuzzybrep.scans.filters import BeamConfig, classify_all
 from fuzzybrep.scans.scan import Scan
 

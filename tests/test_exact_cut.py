@@ -17,8 +17,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fuzzybrep.brep import BRepMap, Ring
-from fuzzybrep.fuzzy import EXACT_QUAD_SEGS, fuzzify
-from fuzzybrep.membership import Triangular
+from fuzzybrep.fuzzy.exact import EXACT_QUAD_SEGS
+from fuzzybrep.fuzzy.map import fuzzify
+from fuzzybrep.fuzzy.membership import Triangular
 
 #: area of the symmetric difference allowed, relative to the crisp map's area (rounding only)
 SYMDIFF_TOL = 1e-9
@@ -105,7 +106,7 @@ def plain_cut(fz, alpha: float) -> tuple:
     (split at its middle where its ends differ), d_in into its own ring and d_out out of it."""
     crisp = fz.crisp_geometry
     d = {k: (float(fz.table[k].d_in(alpha)), float(fz.table[k].d_out(alpha))) for k in fz.table.indices}
-    d = {k: tuple(0.0 if x <= fz._rounding else x for x in v) for k, v in d.items()}
+    d = {k: tuple(0.0 if x <= fz.rounding else x for x in v) for k, v in d.items()}
     segs, fms, rings = [], [], []
     for i, ring in enumerate(fz.crisp.rings):
         v, fm = ring.vertices, ring.fm

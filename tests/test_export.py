@@ -13,10 +13,11 @@ from _floor import TME, floor_map, floor_poses
 from fuzzybrep import BRepMap, Region, Ring
 from fuzzybrep.brep import FRONTIER
 from fuzzybrep.cli import main
-from fuzzybrep.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH, UNKNOWN_GREY,
-                              crisp_features, grey_levels, membership_raster, mu_from_grey, write_ros)
-from fuzzybrep.geojson import geometry_json
-from fuzzybrep.rosmap import RosMap, read_ros_map
+from fuzzybrep.formats.export import (FREE_GREY, FREE_STEPS, FREE_THRESH, OCCUPIED_STEPS, OCCUPIED_THRESH,
+                                      UNKNOWN_GREY, crisp_features, grey_levels, membership_raster, mu_from_grey,
+                                      write_ros)
+from fuzzybrep.formats.geojson import geometry_json
+from fuzzybrep.formats.rosmap import RosMap, read_ros_map
 
 SVG = "{http://www.w3.org/2000/svg}"
 
@@ -133,7 +134,7 @@ def test_ros_yaml_names_its_image_whatever_the_map_file_is_called(floor, tmp_pat
 
 def test_ros_export_of_a_map_in_millimetres_is_in_metres(tmp_path, capsys):
     from _fuzzy_shapes import thesis_map
-    from fuzzybrep.fuzzy import fuzzify
+    from fuzzybrep.fuzzy.map import fuzzify
 
     fz = fuzzify(thesis_map())  # Figure 4.10 in mm, TME 199.13 mm
     fz.save(tmp_path / "e1.json")

@@ -9,9 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
-import fuzzybrep.evaluate as evaluate
-from fuzzybrep.build import BuildConfig, build_map
-from fuzzybrep.polygon import CLIPPED, NONE, RETURN, PolygonConfig
+import fuzzybrep.use.evaluate as evaluate
+from fuzzybrep.mapping.build import BuildConfig, build_map
+from fuzzybrep.scans.filters import CLIPPED, NONE, RETURN
+from fuzzybrep.mapping.scan_polygon import PolygonConfig
 from fuzzybrep.scans import filters
 from fuzzybrep.scans.filters import classify
 from fuzzybrep.scans.scan import Scan, even_bearings

@@ -13,9 +13,11 @@ from hypothesis import strategies as st
 from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES, crisp_maps, dumbbell, thesis_map
 from fuzzybrep.brep import FRONTIER, OBSTACLE, BRepMap, Region, Ring
 from fuzzybrep.errors import GeometryError, MapFileError, MembershipFunctionError
-from fuzzybrep.fuzzy import FuzzyBRepMap, approximation_error, default_tme, fuzzify, memory_table
-from fuzzybrep.mapfile import MapFile, write_map
-from fuzzybrep.membership import A4, DEFAULT_TME_M, MembershipTable, Triangular
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, default_tme, fuzzify
+from fuzzybrep.fuzzy.accuracy import approximation_error
+from fuzzybrep.fuzzy.memory import memory_table
+from fuzzybrep.formats.mapfile import MapFile, write_map
+from fuzzybrep.fuzzy.membership import A4, DEFAULT_TME_M, MembershipTable, Triangular
 
 AREA_TOL = 1e-7
 
@@ -483,7 +485,7 @@ def test_memory_of_a_map():
     rows = fz.memory([1.0])
     assert rows[0].numbers == 16 * 8 and rows[0].bytes == 4 * 16 * 8
     # compact: the encoder's own output, at most 4 bytes per vertex beyond its header and Table 4.2
-    from fuzzybrep.compact import encode
+    from fuzzybrep.formats.compact import encode
 
     assert rows[1].bytes == len(encode(fz.crisp, fz.table.to_dicts()))
     header = len(encode(square(10, []), fz.table.to_dicts())) - 2 - 4 * 2  # a map of one 4-vertex ring

@@ -12,8 +12,8 @@ import shapely
 from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES
 from fuzzybrep.cli import main
 from fuzzybrep.errors import GeometryError, MapFileError
-from fuzzybrep.fuzzy import FuzzyBRepMap
-from fuzzybrep.geojson import crisp_from_geojson, read_geojson, read_points
+from fuzzybrep.fuzzy.map import FuzzyBRepMap
+from fuzzybrep.formats.geojson import crisp_from_geojson, read_geojson, read_points
 
 
 def polygon(shell, *holes):
@@ -184,7 +184,7 @@ def test_fuzzify_needs_a_tme_and_checks_the_function(plan, tmp_path, capsys):
 
 def test_commands_on_a_crisp_map_file_need_tme(tmp_path, capsys):
     from fuzzybrep.brep import BRepMap
-    from fuzzybrep.mapfile import MapFile, write_map
+    from fuzzybrep.formats.mapfile import MapFile, write_map
     m = tmp_path / "crisp.json"
     write_map(m, MapFile(BRepMap.from_shapely(shapely.box(0, 0, 5, 5))))
     assert run("memory", m) == 2
@@ -215,8 +215,8 @@ def test_fuzzify_a_fuzzy_map_file_again(tmp_path, capsys):
     # and then gave every vertex FM 1, losing the frontier's own index. Now, as `build`: FM 2
     # with the new function, or the one --frontier-mf names
     from fuzzybrep.brep import BRepMap, Region, Ring
-    from fuzzybrep.fuzzy import fuzzify
-    from fuzzybrep.membership import Triangular
+    from fuzzybrep.fuzzy.map import fuzzify
+    from fuzzybrep.fuzzy.membership import Triangular
 
     ring = Ring([(0, 0), (5, 0), (5, 5), (0, 5)], kinds=[0, 1, 0, 0])
     built = tmp_path / "built.json"
@@ -279,7 +279,7 @@ def test_a_floor_plan_in_the_simulators_scheme_reads_as_its_free_space(tmp_path,
     assert run("fuzzify", plan, "--tme", 0.2, "--unit", "m", "--out", out) == 2
     assert "room.geojson: the file's unit is 'mm', but 'm' was given" in capsys.readouterr().err
     # the demo's own floorplan.geojson: the built-in floor's free space, its block a hole
-    from fuzzybrep.simulate import builtin_floor, builtin_route
+    from fuzzybrep.sim.simulate import builtin_floor, builtin_route
 
     world = builtin_floor()
     world.write_geojson(tmp_path / "floorplan.geojson", builtin_route())

@@ -11,13 +11,13 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from fuzzybrep import cli
-from fuzzybrep import grid
-from fuzzybrep.grid import (CLAMP, FREE, L_FREE, L_OCC, OCCUPIED, UNKNOWN, OccupancyGrid, cell_runs, logit,
-                            occupancy_grid, traverse_counts)
-from fuzzybrep.rosmap import grid_image, read_ros_map, write_grid
+from fuzzybrep.mapping import grid
+from fuzzybrep.mapping.grid import (CLAMP, FREE, L_FREE, L_OCC, OCCUPIED, UNKNOWN, OccupancyGrid, cell_runs, logit,
+                                    occupancy_grid, traverse_counts)
+from fuzzybrep.formats.rosmap import grid_image, read_ros_map, write_grid
 from fuzzybrep.scans.read import read_scans
 from fuzzybrep.scans.scan import Scan
-from fuzzybrep.simulate import World, cast_rays
+from fuzzybrep.sim.simulate import World, cast_rays
 
 RES = 0.05
 NO_CLAMP = (-math.inf, math.inf)
@@ -387,8 +387,8 @@ def test_intel_grid_free_area_and_round_trip(real_scans, tmp_path):
 def test_the_grid_commands_size_check_agrees_with_the_grid_it_guards(poses, resolution, max_usable):
     # before: the check counted span / r + 3 cells where the grid can need + 4, so a grid one cell
     # over the limit passed the check and ended in occupancy_grid's bare ValueError
-    from fuzzybrep import grid as grid_module
-    from fuzzybrep import rosmap
+    from fuzzybrep.mapping import grid as grid_module
+    from fuzzybrep.formats import rosmap
     from fuzzybrep.commands.grid import check_grid_size
     from fuzzybrep.errors import ScanValueError
 

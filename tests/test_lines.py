@@ -7,19 +7,10 @@ import pytest
 import shapely
 from _synthetic import l_room, room, scan_of
 
-from fuzzybrep.lines import (
-    LineConfig,
-    Lines,
-    absorb_strays,
-    anchored_runs,
-    demote_misfits,
-    extract,
-    hough_accumulator,
-    iepf_lines,
-    intersect,
-    tolerance,
-)
-from fuzzybrep.polygon import NONE, RETURN, PolygonConfig, scan_polygon
+from fuzzybrep.mapping.lines import (LineConfig, Lines, absorb_strays, anchored_runs, demote_misfits, extract,
+                                     hough_accumulator, iepf_lines, intersect, tolerance)
+from fuzzybrep.scans.filters import NONE, RETURN
+from fuzzybrep.mapping.scan_polygon import PolygonConfig, scan_polygon
 from fuzzybrep.scans.filters import classify
 
 

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzybrep.errors import MembershipFunctionError
-from fuzzybrep.membership import (A1, A2, A3, A4, DEFAULT_TME_M, THESIS_TME_MM, MembershipTable, Triangular, from_dict,
-                                  parse_spec, total_maximum_error)
+from fuzzybrep.fuzzy.membership import (A1, A2, A3, A4, DEFAULT_TME_M, THESIS_TME_MM, MembershipTable, Triangular,
+                                        from_dict, parse_spec, total_maximum_error)
 
 
 def test_tme_is_laser_plus_odometry_error():

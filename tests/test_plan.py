@@ -23,11 +23,11 @@ from hypothesis import strategies as st
 from fuzzybrep.brep import BRepMap, Region, Ring
 from fuzzybrep.cli import main
 from fuzzybrep.errors import FuzzyBrepError, NoConnectionError, PlanError, PointNotFreeError
-from fuzzybrep import plan as plan_module
-from fuzzybrep.fuzzy import FuzzyBRepMap, fuzzify
-from fuzzybrep.plan import RADIUS_FACTOR, free_points, plan, planner, safe_region
-from fuzzybrep.medial import MedialAxis
-from fuzzybrep.visibility import Corners, Triangulation, VisibilityGraph
+from fuzzybrep.use import plan as plan_module
+from fuzzybrep.fuzzy.map import FuzzyBRepMap, fuzzify
+from fuzzybrep.use.plan import RADIUS_FACTOR, free_points, plan, planner, safe_region
+from fuzzybrep.use.medial import MedialAxis
+from fuzzybrep.use.visibility import Corners, Triangulation, VisibilityGraph
 
 TOL = 1e-7
 
@@ -525,7 +525,7 @@ def test_the_graphs_of_an_empty_safe_region_are_a_plan_error():
     # benchmarks/plan.py met it first at a radius wider than every corridor
     pl = plan_module.Planner(ROOM, 4)
     for graph, name in (("visibility", "visibility graph"), ("medial", "medial axis"),
-                        ("_axis_links", "visibility graph")):
+                        ("axis_links", "visibility graph")):
         with pytest.raises(PlanError, match=rf"the safe region \(radius 4\) is empty: it has no {name}"):
             getattr(pl, graph)
 

@@ -11,17 +11,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from fuzzybrep.brep import FRONTIER, OBSTACLE
-from fuzzybrep.lines import LineConfig
-from fuzzybrep.polygon import (
-    CLIPPED,
-    FAR,
-    NONE,
-    RETURN,
-    PolygonConfig,
-    depth_continuous,
-    scan_polygon,
-    scan_polygons,
-)
+from fuzzybrep.mapping.lines import LineConfig
+from fuzzybrep.scans.filters import CLIPPED, FAR, NONE, RETURN, depth_continuous
+from fuzzybrep.mapping.scan_polygon import PolygonConfig, scan_polygon, scan_polygons
 from fuzzybrep.scans.filters import BeamConfig, classify, classify_all
 from fuzzybrep.scans.scan import Scan, even_bearings
 

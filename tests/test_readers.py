@@ -11,7 +11,8 @@ from fuzzybrep import MapFileError, ScanFormatError, ScanValueError
 from fuzzybrep.scans.carmen import read_carmen
 from fuzzybrep.scans.consolidate import consolidate, consolidate_pairs
 from fuzzybrep.scans.csvscans import read_csv, write_csv
-from fuzzybrep.scans.read import ReadReport, read_scans
+from fuzzybrep.scans.report import ReadReport
+from fuzzybrep.scans.read import read_scans
 from fuzzybrep.scans.scan import Scan, even_bearings
 
 from conftest import log_path
@@ -329,7 +330,7 @@ def test_csv_writer_refuses_mixed_max_ranges_and_writes_atomically(tmp_path, mon
     def full(fd):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("fuzzybrep.mapfile.os.fsync", full)
+    monkeypatch.setattr("fuzzybrep.formats.files.os.fsync", full)
     with pytest.raises(MapFileError, match="s.csv: cannot write: No space left"):
         write_csv(p, scans[1:])
     assert p.read_bytes() == before and [f.name for f in tmp_path.iterdir()] == ["s.csv"]

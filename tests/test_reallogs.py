@@ -7,11 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from fuzzybrep import evaluate as E
+from fuzzybrep.use import evaluate as E
 from fuzzybrep.brep import FRONTIER, OBSTACLE
-from fuzzybrep.build import BuildConfig, build_map
-from fuzzybrep.fuzzy import compact_bytes, fuzzify
-from fuzzybrep.grid import occupancy_grid
+from fuzzybrep.mapping.build import BuildConfig, build_map
+from fuzzybrep.fuzzy.memory import compact_bytes
+from fuzzybrep.fuzzy.map import fuzzify
+from fuzzybrep.mapping.grid import occupancy_grid
 
 NAMES = ["intel", "aces", "freiburg"]
 

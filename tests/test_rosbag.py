@@ -11,14 +11,15 @@ import pytest
 import shapely
 
 from fuzzybrep import cli
-from fuzzybrep.build import build_map
+from fuzzybrep.mapping.build import build_map
 from fuzzybrep.errors import BagMessageError, BagValueError, ScanFormatError
-from fuzzybrep.mapfile import read_map
+from fuzzybrep.formats.mapfile import read_map
 from fuzzybrep.scans.csvscans import read_csv, write_csv
-from fuzzybrep.scans.read import ReadReport, read_scans
+from fuzzybrep.scans.report import ReadReport
+from fuzzybrep.scans.read import read_scans
 from fuzzybrep.scans.rosbag import read_rosbag
 from fuzzybrep.scans.scan import Scan
-from fuzzybrep.simulate import World, cast_rays
+from fuzzybrep.sim.simulate import World, cast_rays
 
 rosbags = pytest.importorskip("rosbags")
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: E402

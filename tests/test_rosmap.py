@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fuzzybrep.errors import MapFileError
-from fuzzybrep.grid import OccupancyGrid, logit
-from fuzzybrep.rosmap import (PIXEL_FREE, PIXEL_OCCUPIED, PIXEL_UNKNOWN, grid_image, map_yaml, parse_map_yaml,
-                              pgm_bytes, read_pgm, read_ros_map, write_grid, write_ros_map)
+from fuzzybrep.mapping.grid import OccupancyGrid, logit
+from fuzzybrep.formats.rosmap import (PIXEL_FREE, PIXEL_OCCUPIED, PIXEL_UNKNOWN, grid_image, map_yaml,
+                                      parse_map_yaml, pgm_bytes, read_pgm, read_ros_map, write_grid, write_ros_map)
 
 YAML = """image: m.pgm
 resolution: 0.05
@@ -117,7 +117,7 @@ def test_a_map_without_mode_is_trinary(tmp_path):
 
 
 def test_the_image_is_written_before_the_yaml_that_names_it(tmp_path, monkeypatch):
-    import fuzzybrep.rosmap as rosmap
+    import fuzzybrep.formats.rosmap as rosmap
 
     write_atomic = rosmap.write_atomic
 

@@ -11,9 +11,9 @@ import shapely
 
 from fuzzybrep import cli
 from fuzzybrep.errors import ScanFormatError, WorldError
-from fuzzybrep.odometry import BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, THESIS_EB_TURN, read_runs, umbmark
-from fuzzybrep.simulate import (FOOTPRINT, DiffDrive, Laser, Route, World, builtin_floor, builtin_route, cast_rays,
-                                integrate, load_scans, save_run, simulate_run, umbmark_runs)
+from fuzzybrep.sim.umbmark import BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, THESIS_EB_TURN, read_runs, umbmark
+from fuzzybrep.sim.simulate import (FOOTPRINT, DiffDrive, Laser, Route, World, builtin_floor, builtin_route,
+                                    cast_rays, integrate, load_scans, save_run, simulate_run, umbmark_runs)
 
 NO_GLASS = dict(glass_pass=0.0, glass_reflect=0.0)
 

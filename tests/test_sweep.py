@@ -8,8 +8,9 @@ import shapely
 
 from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES, dumbbell
 from fuzzybrep.errors import GeometryError
-from fuzzybrep.sweep import (band_folds, band_parameter, clean, free_space, in_hull, nests, normal_vertices, orientation,
-                             parametric_lines, proper_polygon, swept_hulls)
+from fuzzybrep.fuzzy.sweep import (band_folds, band_parameter, in_hull, normal_vertices, parametric_lines,
+                                   proper_polygon, swept_hulls)
+from fuzzybrep.geometry import clean, free_space, nests, orientation
 
 
 def table_columns(lines):

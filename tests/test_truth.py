@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 import shapely
 
-from fuzzybrep.simulate import World
-from fuzzybrep.truth import _merge_intervals, fraction_inside, fraction_within, hausdorff, length_inside, score, seen_walls
+from fuzzybrep.sim.simulate import World
+from fuzzybrep.sim.truth import (_merge_intervals, fraction_inside, fraction_within, hausdorff, length_inside, score,
+                                 seen_walls)
 
 # a 2 m wide, 0.1 m thick block 2 m in front of a robot at the origin facing +y; the room's own
 # walls are 20 m away, beyond the laser's 8 m

@@ -10,8 +10,8 @@ import pytest
 
 from fuzzybrep import cli
 from fuzzybrep.errors import UMBmarkError
-from fuzzybrep.odometry import (BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, corrected_rev_count, drift_factor, read_runs,
-                                total_maximum_error, umbmark, write_runs)
+from fuzzybrep.sim.umbmark import (BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, corrected_rev_count, drift_factor,
+                                   read_runs, total_maximum_error, umbmark, write_runs)
 
 KEYS = ["x_cg_cw", "y_cg_cw", "x_cg_ccw", "y_cg_ccw", "r_cw", "r_ccw", "E_max_syst", "alpha_deg", "beta_deg",
         "R", "E_d", "E_b", "drift_factor", "rev_count"]

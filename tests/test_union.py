@@ -10,8 +10,9 @@ import shapely
 
 from fuzzybrep import BRepMap, GeometryError, MapFileError, Ring
 from fuzzybrep import brep
-from fuzzybrep.export import crisp_features, write_geojson
-from fuzzybrep.mapfile import MapFile, read_map, write_map
+from fuzzybrep.mapping import union
+from fuzzybrep.formats.export import crisp_features, write_geojson
+from fuzzybrep.formats.mapfile import MapFile, read_map, write_map
 
 
 def ring(coords) -> Ring:
@@ -19,7 +20,7 @@ def ring(coords) -> Ring:
 
 
 def unite(*rings) -> BRepMap:
-    return BRepMap.from_shapely(brep.union(brep.rings_to_shapely(list(rings))))
+    return BRepMap.from_shapely(union.union(brep.rings_to_shapely(list(rings))))
 
 
 def octagon(cx, cy, r):
@@ -100,7 +101,7 @@ def test_union_one_by_one_equals_all_at_once():
     # the same set in any order
     rng = np.random.default_rng(0)
     rings = [octagon(*rng.uniform(0, 6, 2), rng.uniform(0.5, 2)) for _ in range(12)]
-    together = brep.union(brep.rings_to_shapely(rings))
+    together = union.union(brep.rings_to_shapely(rings))
     g = shapely.Polygon()
     for r in rings[::-1]:
         g = shapely.union(g, shapely.Polygon(r.vertices))
@@ -171,19 +172,19 @@ def test_from_shapely_keeps_only_pieces_and_holes_with_area():
 def test_union_repairs_invalid_polygons_and_simplifies_within_the_tolerance():
     bow_tie = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # two triangles of area 1 meeting at (1, 1)
     for simplify in (0.0, 0.01):  # simplified, both triangles too (GEOS's own mend keeps one)
-        g = brep.union([bow_tie, shapely.box(10, 10, 11, 11)], simplify=simplify)
+        g = union.union([bow_tie, shapely.box(10, 10, 11, 11)], simplify=simplify)
         assert g.is_valid and np.isclose(g.area, 3.0)
     # a notch 2 mm wide reaching down to 4 mm above a bottom edge that dips 8 mm under it:
     # simplified within 1 cm the dip goes and the edge would cross the notch; the union is valid
     # and differs from the exact one only within 1 cm of its boundary
     notched = shapely.Polygon([(0, 0.008), (6.001, 0), (10, 0.008), (10, 2), (6.002, 2), (6.002, 0.004),
                                (6, 0.004), (6, 2), (0, 2)])
-    g = brep.union([notched, shapely.box(20, 0, 21, 1)], simplify=0.01)
+    g = union.union([notched, shapely.box(20, 0, 21, 1)], simplify=0.01)
     exact = shapely.union(notched, shapely.box(20, 0, 21, 1))
     assert g.is_valid and shapely.symmetric_difference(g, exact).difference(exact.boundary.buffer(0.0101)).area < 1e-12
     bumpy = shapely.Polygon([(0, 0), (2, 0), (2, 1), (2.01, 2), (2, 3), (0, 3)])  # 1 cm off the line x = 2
-    assert len(shapely.get_coordinates(brep.union([bumpy]))) == 7
-    simple = brep.union([bumpy], simplify=0.05)
+    assert len(shapely.get_coordinates(union.union([bumpy]))) == 7
+    simple = union.union([bumpy], simplify=0.05)
     assert simple.equals(shapely.box(0, 0, 2, 3))
 
 
@@ -191,7 +192,7 @@ def test_clean_drops_pieces_and_holes_of_at_most_the_given_areas():
     big = shapely.Polygon([(0, 0), (10, 0), (10, 10), (0, 10)],
                           [shapely.box(1, 1, 2, 2).exterior.coords, shapely.box(4, 4, 6, 6).exterior.coords])
     g = shapely.MultiPolygon([big, shapely.box(20, 0, 21, 1), shapely.box(30, 0, 32, 2)])
-    out = brep.clean(g, min_piece_area=1.0, min_hole_area=1.0)
+    out = union.clean(g, min_piece_area=1.0, min_hole_area=1.0)
     # the 1 m² piece and the 1 m² hole go; the 4 m² piece and hole stay
     assert np.isclose(out.area, 100 - 4 + 4)
     parts = shapely.get_parts(out)
@@ -202,12 +203,12 @@ def test_clean_drops_pieces_and_holes_of_at_most_the_given_areas():
 def test_clean_simplifies_and_drops_holes_too_small_for_the_tolerance():
     # a vertex 1 cm off a wall is simplified away at 5 cm
     bumpy = shapely.Polygon([(0, 0), (2, 0), (2, 1), (2.01, 2), (2, 3), (0, 3)])
-    assert brep.clean(bumpy, simplify=0.05).equals(shapely.box(0, 0, 2, 3))
+    assert union.clean(bumpy, simplify=0.05).equals(shapely.box(0, 0, 2, 3))
     # a 7 cm square hole (49 cm²) is under (1 m / 10)² = 100 cm²: nothing at a 1 m tolerance
     room = shapely.Polygon([(0, 0), (20, 0), (20, 20), (0, 20)], [shapely.box(10, 10, 10.07, 10.07).exterior.coords])
-    out = brep.clean(room, simplify=1.0)
+    out = union.clean(room, simplify=1.0)
     assert len(out.interiors) == 0 and np.isclose(out.area, 400)
-    assert len(brep.clean(room, simplify=0.01).interiors) == 1  # (1 mm)² is smaller: kept
+    assert len(union.clean(room, simplify=0.01).interiors) == 1  # (1 mm)² is smaller: kept
 
 
 def test_map_file_round_trips_exactly(tmp_path):
@@ -224,7 +225,7 @@ def test_map_file_round_trips_exactly(tmp_path):
     assert back.metadata == {"source": "test"} and back.membership_functions[0]["tme"] == 0.2
     assert not list(tmp_path.glob(".*tmp"))  # no temporary left behind
     # readable like any file the user writes, not private like a temporary file
-    from fuzzybrep.mapfile import FILE_MODE
+    from fuzzybrep.formats.files import FILE_MODE
 
     assert p.stat().st_mode & 0o777 == FILE_MODE
 
@@ -253,7 +254,7 @@ def test_failed_write_leaves_the_old_map_intact(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("fuzzybrep.mapfile.os.replace", boom)
+    monkeypatch.setattr("fuzzybrep.formats.files.os.replace", boom)
     with pytest.raises(MapFileError, match="No space left"):
         write_map(p, MapFile(unite(octagon(5, 5, 2))))
     assert p.read_bytes() == before and not list(tmp_path.glob(".*tmp"))

@@ -18,7 +18,7 @@ from _fuzzy_shapes import crisp_maps, dumbbell, thesis_map
 from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
 from fuzzybrep.errors import MapFileError
-from fuzzybrep.fuzzy import fuzzify
+from fuzzybrep.fuzzy.map import fuzzify
 from fuzzybrep.viewer import band_quads, html_document, payload, read_path, swept_cut, write_html
 
 

@@ -12,8 +12,6 @@ others are kept as further regions, largest first: no data is dropped. Thesis 3.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -21,7 +19,7 @@ import numpy as np
 import shapely
 
 from .errors import GeometryError
-from .sweep import NESTS_FROM, nests, polygonal, signed_area
+from .geometry import NESTS_FROM, nests, polygonal, signed_area
 
 #: Edge kinds: an obstacle edge is where a laser return was seen; a frontier edge is the limit of
 #: what was seen (no return, maximum range, the side of a ray past an occluding object).
@@ -280,6 +278,65 @@ def check_region(region: Region, names: Sequence[str]) -> None:
         raise GeometryError(f"invalid region: {reason}", ring=ring_name or names[0], vertex=vertex)
 
 
+def validate_map(crisp: BRepMap) -> None:
+    """Raise GeometryError naming ring and vertex if a ring is degenerate or a region invalid.
+
+    Unlike ``BRepMap.validate`` the ring order is not checked: the sweep works with either.
+    """
+    if not crisp.regions:
+        raise GeometryError("the map has no regions")
+    names = crisp.ring_names()
+    rings = crisp.rings
+    sizes = np.array([len(r) for r in rings])
+    suspect = sizes < 3
+    if not suspect.any():
+        V = np.vstack([r.vertices for r in rings])
+        start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        ring_of = np.repeat(np.arange(len(rings)), sizes)
+        nxt = np.arange(len(V)) + 1
+        nxt[start + sizes - 1] = start
+        finite = np.isfinite(V).all(axis=1)
+        dup = np.all(V == V[nxt], axis=1)
+        # a ring with a non-finite vertex is suspect already: 0 in its place keeps NumPy from
+        # warning (a second line before the error), and an area that overflows is not 0
+        Vf = np.where(finite[:, None], V, 0.0)
+        x, y = Vf[:, 0], Vf[:, 1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, start)
+        closed = np.concatenate([np.append(np.arange(a, a + n), a) for a, n in zip(start, sizes)])
+        simple = shapely.is_simple(shapely.linearrings(Vf[closed], indices=ring_of[closed]))
+        suspect = (np.bincount(ring_of, weights=~finite | dup, minlength=len(rings)) > 0) | (area == 0) | ~simple
+    for k in np.flatnonzero(suspect):  # the detailed message comes from validate_ring
+        validate_ring(rings[k].vertices, names[k])
+    k = 0
+    for region in crisp.regions:
+        region_names, k = names[k:k + len(region.rings)], k + len(region.rings)
+        check_region(region, region_names)  # the rings are simple now
+    _check_disjoint(crisp)
+
+
+def _check_disjoint(crisp: BRepMap) -> None:
+    """GeometryError if two regions overlap. Each region is a piece of free space apart from the
+    others (meeting at points at most); overlapping ones were taken as they were, their common
+    area counted twice and the α-cuts and rasters of each drawn over the other's."""
+    if len(crisp.regions) < 2:
+        return
+    polys = np.array([region.to_shapely() for region in crisp.regions], dtype=object)
+    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
+    a, b = a[a < b], b[a < b]
+    inside = shapely.relate_pattern(polys[a], polys[b], "T********")  # interiors meet
+    if not inside.any():
+        return
+    i, j = int(a[inside][0]), int(b[inside][0])
+    names = ["principal" if k == 0 else f"piece {k + 1}" for k in range(len(polys))]
+    shell = crisp.regions[j].shell.vertices
+    within = np.flatnonzero(shapely.contains_xy(polys[i], shell[:, 0], shell[:, 1]))
+    x, y = (shell[within[0]] if within.size else
+            np.asarray(shapely.intersection(polys[i], polys[j]).representative_point().coords[0]))
+    raise GeometryError(f"overlaps {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free space",
+                        ring=names[j], vertex=int(within[0]) + 1 if within.size else None)
+
+
 def rings_to_shapely(rings: list[Ring]) -> np.ndarray:
     """Shapely polygons (one per ring, no holes) built in one vectorised call."""
     if not rings:
@@ -287,66 +344,3 @@ def rings_to_shapely(rings: list[Ring]) -> np.ndarray:
     coords = np.vstack([r.closed_coords() for r in rings])
     idx = np.repeat(np.arange(len(rings)), [len(r) + 1 for r in rings])
     return shapely.polygons(shapely.linearrings(coords, indices=idx))
-
-
-def union(polygons, simplify: float = 0.0) -> shapely.Geometry:
-    """Union of scan polygons (thesis 3.2.2, 3.2.3), by GEOS's cascaded union.
-
-    Uniting all at once gives the same set as uniting them one after another into the map, in
-    any order, but in O(n log n) instead of O(n²). Holes form where the union encloses space no
-    scan saw free. Each polygon is first simplified within ``simplify`` (topology kept), if given.
-    """
-    polys = np.asarray(polygons, dtype=object)
-
-    def valid(part):
-        bad = ~shapely.is_valid(part)
-        if bad.any():
-            part = part.copy()
-            part[bad] = shapely.make_valid(part[bad])
-        return part
-
-    def unite(part):
-        # simplifying and checking go polygon by polygon, so each part's worker does its own
-        part = valid(part)
-        if simplify > 0:
-            # plain Douglas-Peucker, five times faster than the topology-preserving one (0.28 s
-            # against 1.4 s for Freiburg's 4791 polygons). Given valid polygons only: GEOS mends
-            # what it makes invalid by buffer(0), which drops a lobe of an invalid input
-            part = valid(shapely.simplify(part, simplify, preserve_topology=False))
-        return shapely.union_all(part)
-
-    workers = os.cpu_count() or 1
-    if workers > 1 and len(polys) >= 64:
-        # GEOS releases the GIL: unite parts on every core, then unite the parts
-        with ThreadPoolExecutor(workers) as ex:
-            polys = np.array(list(ex.map(unite, np.array_split(polys, workers))), dtype=object)
-        return polygonal(shapely.union_all(polys))
-    return polygonal(unite(polys))
-
-
-def clean(geom, min_piece_area: float = 0.0, min_hole_area: float = 0.0, simplify: float = 0.0):
-    """Drop pieces and holes below the given areas, then simplify boundaries within ``simplify``.
-
-    Simplification keeps topology (no boundary crosses another), so it never merges a hole into
-    the shell or turns a piece invalid. It can squash a tiny hole into a needle with (almost) no
-    area: holes under a tenth of the tolerance squared bound nothing the map can resolve.
-    """
-    g = _drop_small(polygonal(geom), min_piece_area, min_hole_area)
-    if simplify > 0 and not g.is_empty:
-        g = polygonal(shapely.make_valid(shapely.simplify(g, simplify, preserve_topology=True)))
-        # (s/10)², written s/10 * s/10: a float's ** raises OverflowError (--simplify 1e300) where * gives inf
-        g = _drop_small(g, min_piece_area, max(min_hole_area, simplify / 10 * (simplify / 10)))
-    return g
-
-
-def _drop_small(geom, min_piece_area: float, min_hole_area: float):
-    """Pieces of at most min_piece_area and holes of at most min_hole_area removed, vectorised."""
-    parts = shapely.get_parts(geom)
-    parts = parts[shapely.area(parts) > min_piece_area] if len(parts) else parts
-    if len(parts) == 0:
-        return shapely.MultiPolygon()
-    rings, owner = shapely.get_rings(parts, return_index=True)
-    shell = np.r_[True, owner[1:] != owner[:-1]]
-    keep = shell | (shapely.area(shapely.polygons(rings)) > min_hole_area)
-    polys = shapely.polygons(rings[keep], indices=owner[keep])
-    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(list(polys))

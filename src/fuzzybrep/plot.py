@@ -104,7 +104,7 @@ def check_figure_path(path: str | os.PathLike) -> None:
     from matplotlib.backend_bases import FigureCanvasBase
 
     from .errors import MapFileError
-    from .mapfile import check_writable
+    from .formats.files import check_writable
 
     formats = FigureCanvasBase.get_supported_filetypes()
     if _format(path) not in formats:
@@ -120,7 +120,7 @@ def _save(fig, path, dpi) -> None:
 
     import matplotlib.pyplot as plt
 
-    from .mapfile import write_atomic
+    from .formats.files import write_atomic
 
     try:
         fig.tight_layout()

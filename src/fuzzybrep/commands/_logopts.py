@@ -7,7 +7,8 @@ the input is a bag, so ``read_scans`` keeps one signature per format.
 from __future__ import annotations
 
 from ..errors import ScanFormatError, ScanValueError
-from ..scans.read import ReadReport, detect_format, read_scans
+from ..scans.read import detect_format, read_scans
+from ..scans.report import ReadReport
 from ._types import positive
 
 

@@ -7,12 +7,13 @@ import json
 from pathlib import Path
 
 from ..brep import BRepMap, Ring
-from ..compact import MAGIC
 from ..errors import MapFileError, MembershipFunctionError
-from ..fuzzy import FuzzyBRepMap, fuzzify
-from ..geojson import read_geojson
-from ..mapfile import FORMAT, MapFile, from_json, loads_json, map_from_bytes, read_map
-from ..membership import DEFAULT_TME_M, parse_spec, total_maximum_error
+from ..formats.compact import MAGIC
+from ..formats.files import loads_json
+from ..formats.geojson import read_geojson
+from ..formats.mapfile import FORMAT, MapFile, from_json, map_from_bytes, read_map
+from ..fuzzy.map import FuzzyBRepMap, fuzzify
+from ..fuzzy.membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
 def add_mf_arguments(parser: argparse.ArgumentParser, default_tme: float | None = None) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import WorldError
-from ..world import Route, World, builtin_floor, builtin_route, check_route
+from ..sim.world import Route, World, builtin_floor, builtin_route, check_route
 
 
 def add_world_arguments(p: argparse.ArgumentParser, title: str) -> None:

@@ -6,8 +6,8 @@ import argparse
 import json
 import sys
 
-from ..geojson import alpha_cut_collection
-from ..mapfile import check_outputs, write_atomic
+from ..formats.files import check_outputs, write_atomic
+from ..formats.geojson import alpha_cut_collection
 from ._maps import add_map_argument, load_map
 from ._types import alpha
 

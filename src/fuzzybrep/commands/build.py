@@ -41,7 +41,7 @@ def add_arguments(p) -> None:
 
 
 def config_from_args(args):
-    from ..build import BuildConfig
+    from ..mapping.build import BuildConfig
 
     cfg = BuildConfig()
     cfg = replace(
@@ -65,12 +65,12 @@ def run(args) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from ..build import build_map
-    from ..mapfile import check_outputs
-    from ..fuzzy import fuzzify
-    from ._maps import mf_from_args
+    from ..formats.files import check_outputs
+    from ..fuzzy.map import fuzzify
+    from ..mapping.build import build_map
     from ..plot import check_figure_path, save_map_figure
     from ..scans.consolidate import consolidate_pairs
+    from ._maps import mf_from_args
 
     console = Console(stderr=True, quiet=args.quiet)
     cfg = config_from_args(args)

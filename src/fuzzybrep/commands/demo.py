@@ -30,8 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..demo import report, run_demo, summary
-    from ..mapfile import check_outputs, write_atomic
+    from ..formats.files import check_outputs, write_atomic
+    from ..sim.demo import report, run_demo, summary
     from ._world import world_and_route
 
     t0 = time.perf_counter()

@@ -8,8 +8,8 @@ import sys
 
 from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log, read_notes
-from .grid import check_grid_size
 from ._types import number, positive
+from .grid import check_grid_size
 
 _holdout = number(lambda k: k >= 2, "K must be a whole number, got {text!r}",
                   "K must be at least 2 (every K-th scan is held out, the rest build the map), got {text}", cast=int)
@@ -30,8 +30,8 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
-    from ..build import BuildConfig
-    from ..evaluate import evaluate_log, ordinal
+    from ..mapping.build import BuildConfig
+    from ..use.evaluate import evaluate_log, ordinal
     scans, report = read_log(args)
     for line in read_notes(report):  # on standard error: --json's output stays one JSON document
         print(line, file=sys.stderr)

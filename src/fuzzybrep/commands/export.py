@@ -31,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                      help="standalone SVG picture: crisp map, support band, α-cut outlines")
     out.add_argument("--compact", metavar="OUT.fbrc",
                      help="the compact binary map a small robot stores: vertices to 1 mm as varint steps, edge "
-                          "kinds, Table 4.2 (fuzzybrep.compact; the fuzzy tables follow from it in O(n))")
+                          "kinds, Table 4.2 (fuzzybrep.formats.compact; the fuzzy tables follow from it in O(n))")
     p.add_argument("--alpha", type=alpha, action="append", metavar="A",
                    help="α level for --geojson and --svg; repeat for several (default 0 0.25 0.5 0.75 1)")
     p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
@@ -46,10 +46,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import MapFileError
-    from ..export import (DEFAULT_ALPHAS, alpha_cut_features, crisp_features, membership_raster, metres_per_unit,
-                          write_geojson, write_ros)
-    from ..mapfile import check_outputs, write_atomic
-    from ..svg import svg_document
+    from ..formats.export import (
+        DEFAULT_ALPHAS,
+        alpha_cut_features,
+        crisp_features,
+        membership_raster,
+        metres_per_unit,
+        write_geojson,
+        write_ros,
+    )
+    from ..formats.files import check_outputs, write_atomic
+    from ..formats.svg import svg_document
 
     if not (args.geojson or args.ros or args.svg or args.compact):
         print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
@@ -71,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         n = write_atomic(args.svg, text.encode("utf-8"))
         print(f"{args.svg}: {n} bytes")
     if args.compact:
-        from ..compact import stored_map, write_compact
+        from ..formats.compact import stored_map, write_compact
 
         mfs = fuzzy.table.to_dicts()
         stored = stored_map(fuzzy.crisp, mfs)

@@ -20,7 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..mapfile import check_outputs
+    from ..formats.files import check_outputs
 
     check_outputs(args.out, inputs=(args.crisp,))
     crisp = read_crisp(args.crisp, args.unit)

@@ -33,10 +33,11 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
     looked at, so that a grid which fits is never refused."""
     import numpy as np
 
-    from ..build import farthest_out
+    from ..arrays import cell_count_text
     from ..errors import ScanValueError
-    from ..grid import beams_of, lattice
-    from ..rosmap import MAX_CELLS, cell_count_text
+    from ..formats.rosmap import MAX_CELLS
+    from ..mapping.build import farthest_out
+    from ..mapping.grid import beams_of, lattice
 
     xy = np.array([s.pose[:2] for s in scans])
     reach = max(max_usable, no_return_free)
@@ -57,9 +58,9 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
 
 
 def run(args) -> int:
-    from ..grid import occupancy_grid
-    from ..mapfile import check_outputs
-    from ..rosmap import write_grid
+    from ..formats.files import check_outputs
+    from ..formats.rosmap import write_grid
+    from ..mapping.grid import occupancy_grid
 
     check_outputs(*(Path(args.out) / f"{args.name}.{ext}" for ext in ("yaml", "pgm")), inputs=(args.log,))
     t0 = time.perf_counter()

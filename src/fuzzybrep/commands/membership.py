@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..geojson import read_points
+from ..formats.geojson import read_points
 from ._maps import add_map_argument, load_map
 
 NAME = "membership"

@@ -6,7 +6,7 @@ import argparse
 import math
 
 from ..errors import MapFileError
-from ..fuzzy import THESIS_GRID_CELLS, memory_markdown
+from ..fuzzy.memory import THESIS_GRID_CELLS, memory_markdown
 from ._maps import add_map_argument, load_map
 from ._types import number
 

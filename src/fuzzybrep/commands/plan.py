@@ -7,7 +7,7 @@ import json
 import math
 import sys
 
-from ..plan import MODES, planner
+from ..use.plan import MODES, planner
 from ._maps import add_map_argument, load_map
 from ._types import alpha, finite, number
 

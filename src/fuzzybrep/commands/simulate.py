@@ -8,8 +8,8 @@ import math
 from dataclasses import replace
 
 from ..errors import FuzzyBrepError
-from ..odometry import write_runs
-from ..simulate import DiffDrive, Laser, save_run, simulate_run, umbmark_runs
+from ..sim.simulate import DiffDrive, Laser, save_run, simulate_run, umbmark_runs
+from ..sim.umbmark import write_runs
 from ._types import seed
 from ._world import add_world_arguments, world_and_route
 
@@ -40,7 +40,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..mapfile import check_outputs
+    from ..formats.files import check_outputs
 
     # the floor plan and route read are inputs: --world-out onto --world rewrote the user's plan
     check_outputs(args.out, args.world_out, args.umbmark_out, inputs=(args.world, args.route))

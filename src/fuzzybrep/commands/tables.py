@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..brep import KIND_NAMES
-from ..mapfile import check_outputs, write_atomic
+from ..formats.files import check_outputs, write_atomic
 from ._maps import add_map_argument, load_map
 
 NAME = "tables"

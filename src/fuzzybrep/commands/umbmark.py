@@ -6,7 +6,17 @@ import argparse
 import json
 import math
 
-from ..odometry import BORENSTEIN_EB_TURN, REV_COUNT, SIDE_MM, THESIS_EB_TURN, WHEEL_MM, WHEELBASE_MM, read_runs, total_maximum_error, umbmark
+from ..sim.umbmark import (
+    BORENSTEIN_EB_TURN,
+    REV_COUNT,
+    SIDE_MM,
+    THESIS_EB_TURN,
+    WHEEL_MM,
+    WHEELBASE_MM,
+    read_runs,
+    total_maximum_error,
+    umbmark,
+)
 
 NAME = "umbmark"
 HELP = "odometry systematic errors from UMBmark square runs (thesis Appendix I)"

@@ -26,7 +26,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..mapfile import check_outputs, read_map
+    from ..formats.files import check_outputs
+    from ..formats.mapfile import read_map
     from ..viewer import read_path, write_html
 
     check_outputs(args.html, inputs=(args.map, args.path))

@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import is_float
 from ..errors import ScanFormatError
-from .read import BadLine, ReadReport, is_float
+from .report import BadLine, ReadReport
 from .scan import Scan, even_bearings
 
 SCAN_MESSAGES = ("FLASER",)

@@ -27,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arrays import is_float
 from ..errors import ScanFormatError
-from ..mapfile import write_atomic
-from .read import BadLine, ReadReport, is_float
+from ..formats.files import write_atomic
+from .report import BadLine, ReadReport
 from .scan import Scan
 
 COLUMNS = ("scan", "time", "x", "y", "theta", "bearing", "range")

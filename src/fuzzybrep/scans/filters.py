@@ -29,9 +29,31 @@ from typing import Sequence
 
 import numpy as np
 
-from ..lines import spans
-from ..polygon import CLIPPED, FAR, NONE, RETURN, PolygonConfig, depth_continuous
+from ..arrays import spans
 from .scan import Scan
+
+#: beam status
+RETURN, CLIPPED, FAR, NONE = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class DepthJump:
+    """The adaptive breakpoint test's parameters, shared by the spike filter and the scan polygons
+    (``mapping.scan_polygon.PolygonConfig`` carries the same two fields)."""
+
+    jump_angle: float = np.radians(10.0)  #: λ of the adaptive depth-jump test (Borges & Aldon)
+    jump_floor: float = 0.05  #: depth-jump allowance added to the geometric one (3σ of range noise)
+
+
+def depth_continuous(f0: np.ndarray, f1: np.ndarray, dbeta: np.ndarray, cfg: DepthJump) -> np.ndarray:
+    """True where neighbouring beams (ranges f0, f1, dbeta apart) see one surface.
+
+    The adaptive breakpoint test: the largest range change a surface at incidence angle
+    ``jump_angle`` can make over one beam step, plus the noise floor.
+    """
+    r = np.minimum(f0, f1)
+    limit = r * np.sin(dbeta) / np.sin(np.maximum(cfg.jump_angle - dbeta, 1e-6)) + cfg.jump_floor
+    return np.abs(f0 - f1) <= limit
 
 
 @dataclass(frozen=True)
@@ -45,7 +67,7 @@ class BeamConfig:
 
 
 def classify(scan: Scan, cfg: BeamConfig = BeamConfig(),
-             polygon: PolygonConfig = PolygonConfig()) -> tuple[np.ndarray, np.ndarray]:
+             polygon: DepthJump = DepthJump()) -> tuple[np.ndarray, np.ndarray]:
     """(free, status) of every beam of one scan, before any evidence from other scans."""
     return classify_all([scan], cfg, polygon)[0]
 
@@ -54,10 +76,11 @@ _ROWS = 512  # scans filtered together (classify_all)
 
 
 def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig(),
-                 polygon: PolygonConfig = PolygonConfig()) -> list[tuple[np.ndarray, np.ndarray]]:
+                 polygon: DepthJump = DepthJump()) -> list[tuple[np.ndarray, np.ndarray]]:
     """(free, status) of every beam of every scan; scans with the same beam count go together.
 
-    polygon: the scan polygons' configuration, whose depth-jump test the spike filter shares.
+    polygon: the depth-jump test's parameters (``DepthJump``, or the scan polygons' configuration,
+    whose test the spike filter shares).
     """
     out: list = [None] * len(scans)
     groups: dict[tuple[int, bool], list[int]] = {}
@@ -82,7 +105,7 @@ def classify_all(scans: Sequence[Scan], cfg: BeamConfig = BeamConfig(),
 
 
 def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig, full_circle: bool = False,
-            polygon: PolygonConfig = PolygonConfig()):
+            polygon: DepthJump = DepthJump()):
     """Cut back the beams that passed through a narrow opening (see the module doc).
 
     free, status, bearings: (S, n) arrays, one row per scan. With ``full_circle`` (360° scans) the
@@ -103,7 +126,7 @@ def despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: Bea
 
 
 def _despike(free: np.ndarray, status: np.ndarray, bearings: np.ndarray, cfg: BeamConfig,
-             polygon: PolygonConfig):
+             polygon: DepthJump):
     """The spike filter on rows of beams in order, the first and last without neighbours.
 
     free, status, bearings: (S, n) arrays, one row per scan. An opening runs from a depth jump

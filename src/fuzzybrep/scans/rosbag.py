@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BagMessageError, BagValueError, FuzzyBrepError, ScanFormatError
-from .read import ReadReport, first_bytes
+from .report import ReadReport, first_bytes
 from .scan import Scan
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"

@@ -23,9 +23,9 @@ import numpy as np
 import shapely
 
 from ..errors import MapFileError
-from ..export import coordinate_quantum
-from ..mapfile import loads_json, write_atomic
-from ..sweep import polygonal
+from ..formats.export import coordinate_quantum
+from ..formats.files import loads_json, write_atomic
+from ..geometry import polygonal
 
 FORMAT = "fuzzybrep-viewer"
 VERSION = 1
@@ -81,7 +81,7 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
     crisp, table = fuzzy.crisp, fuzzy.table
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
     q = coordinate_quantum(crisp.unit, max(x1 - x0, y1 - y0))
-    s = fuzzy._stack  # every ring's columns stacked in crisp.rings order
+    s = fuzzy.stack  # every ring's columns stacked in crisp.rings order
     sizes, starts, fm = s["sizes"], s["start"], s["fm"]
     xi = np.rint(s["V"] / q).astype(np.int64)
     ti = np.rint(s["TV"] / (q / 10)).astype(np.int64)
@@ -163,7 +163,7 @@ def band_quads(fuzzy, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     ``free`` are the bands on the free side (the principal polygon's IN bands, the holes' OUT
     bands), ``obstacle`` the others. The page draws the convex hull of each.
     """
-    V, nxt = fuzzy._stack["V"], fuzzy._stack["next"]
+    V, nxt = fuzzy.stack["V"], fuzzy.stack["next"]
     # shrink: the principal polygon's IN offset and the holes' OUT ones, i.e. the free side
     shrink, grow = fuzzy.offset_vertices(alpha)
     free = np.stack((V, V[nxt], shrink[nxt], shrink), axis=1)

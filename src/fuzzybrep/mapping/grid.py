@@ -36,8 +36,9 @@ from typing import Sequence
 
 import numpy as np
 
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area
-from .scans.scan import Scan
+from ..arrays import cell_count_text, cells_area
+from ..formats.rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH
+from ..scans.scan import Scan
 
 
 def logit(p: float) -> float:

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from .errors import WorldError
-from .mapfile import loads_json, write_atomic
+from ..errors import WorldError
+from ..formats.files import loads_json, write_atomic
 
 #: glass lines may lie this far (m) off the free-space boundary; wall pieces shorter than twice
 #: this (the slivers a glass line's end cuts off the neighbouring wall) are dropped

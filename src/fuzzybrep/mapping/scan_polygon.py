@@ -23,12 +23,11 @@ from typing import Sequence
 
 import numpy as np
 
-from .brep import FRONTIER, OBSTACLE, Ring
-from .lines import LineConfig, Lines, extract, intersect, spans, tolerance
-from .scans.scan import Scan
-
-#: beam status
-RETURN, CLIPPED, FAR, NONE = 0, 1, 2, 3
+from ..arrays import spans
+from ..brep import FRONTIER, OBSTACLE, Ring
+from ..scans.filters import CLIPPED, NONE, RETURN, DepthJump, depth_continuous
+from ..scans.scan import Scan
+from .lines import LineConfig, Lines, extract, intersect, tolerance
 
 # where on its beam a vertex sits, as a fraction added to the beam's position: the boundary
 # reaches the beam (A), starts a line (S), has a single point (P), ends a line (E), leaves (C)
@@ -39,8 +38,8 @@ _APEX, _CORNER = -0.05, -0.5  # before the scan's first beam; between a beam and
 @dataclass(frozen=True)
 class PolygonConfig:
     lines: LineConfig = field(default_factory=LineConfig)
-    jump_angle: float = np.radians(10.0)  #: λ of the adaptive depth-jump test (Borges & Aldon)
-    jump_floor: float = 0.05  #: depth-jump allowance added to the geometric one (3σ of range noise)
+    jump_angle: float = DepthJump.jump_angle  #: λ of the adaptive depth-jump test (Borges & Aldon)
+    jump_floor: float = DepthJump.jump_floor  #: depth-jump allowance added to the geometric one (3σ of range noise)
     #: lines meeting at less than this get no shared vertex (15° left 10-15° bends 4-5 cm off their
     #: walls; a far-off intersection of near-parallel lines fails the nearness tests anyway)
     corner_angle: float = np.radians(5.0)
@@ -101,17 +100,6 @@ def scan_polygons(
         own = Lines(start[lo:hi], stop[lo:hi], lines.theta[lo:hi], lines.rho[lo:hi])
         out.append(ScanPolygon(Ring(world[v:w], kinds[v:w]), own))
     return out
-
-
-def depth_continuous(f0: np.ndarray, f1: np.ndarray, dbeta: np.ndarray, cfg: PolygonConfig) -> np.ndarray:
-    """True where neighbouring beams (ranges f0, f1, dbeta apart) see one surface.
-
-    The adaptive breakpoint test: the largest range change a surface at incidence angle
-    ``jump_angle`` can make over one beam step, plus the noise floor.
-    """
-    r = np.minimum(f0, f1)
-    limit = r * np.sin(dbeta) / np.sin(np.maximum(cfg.jump_angle - dbeta, 1e-6)) + cfg.jump_floor
-    return np.abs(f0 - f1) <= limit
 
 
 class _Beams:

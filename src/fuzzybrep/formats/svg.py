@@ -17,7 +17,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 import shapely
 
-from .brep import FRONTIER, BRepMap
+from ..brep import FRONTIER, BRepMap
 from .export import coordinate_quantum
 
 FREE = "#ffffff"

@@ -28,10 +28,10 @@ from typing import Sequence
 import numpy as np
 import shapely
 
-from .errors import ScanValueError
-from .polygon import PolygonConfig, depth_continuous
-from .scans.filters import classify_all
-from .scans.scan import Scan
+from ..errors import ScanValueError
+from ..mapping.scan_polygon import PolygonConfig
+from ..scans.filters import classify_all, depth_continuous
+from ..scans.scan import Scan
 
 #: ``seen_free`` looks at about this many (scan, point) pairs at a time, about 120 bytes each at
 #: its peak (30 MB); 4 000 000 took 430 MB, and more time, not less
@@ -283,9 +283,10 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     """
     import time
 
-    from .build import BuildConfig, build_map
-    from .fuzzy import compact_bytes, fuzzify, memory_table
-    from .grid import occupancy_grid
+    from ..fuzzy.map import fuzzify
+    from ..fuzzy.memory import compact_bytes, memory_table
+    from ..mapping.build import BuildConfig, build_map
+    from ..mapping.grid import occupancy_grid
 
     config = config or BuildConfig()
     tme = config.tme if tme is None else tme

@@ -23,12 +23,12 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 import shapely
 
-from .build import BuildConfig, BuildResult, build_map
-from .fuzzy import AlphaCut, FuzzyBRepMap, fuzzify
-from .localise import MODELS, PoseErrors, pose_errors, scan_poses, with_poses
-from .odometry import SIDE_MM, UMBmarkResult, total_maximum_error, umbmark
+from ..fuzzy.map import AlphaCut, FuzzyBRepMap, fuzzify
+from ..mapping.build import BuildConfig, BuildResult, build_map
+from .pose_error import MODELS, PoseErrors, pose_errors, scan_poses, with_poses
 from .simulate import DiffDrive, Laser, Route, SimRun, World, consolidate, simulate_run, umbmark_runs
 from .truth import TruthScore, score_cuts, seen_walls
+from .umbmark import SIDE_MM, UMBmarkResult, total_maximum_error, umbmark
 
 #: the LMS200's systematic error in mm-mode (Table 5.1; thesis 4.1.1)
 LRF_ERROR_MM = 15.0

@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import membership
-from .errors import UMBmarkError
-from .mapfile import write_atomic
+from ..errors import UMBmarkError
+from ..formats.files import write_atomic
+from ..fuzzy import membership
 
 #: Appendix I's Pioneer 3-DX values: 4 m square, b = 267 mm, 195 mm of travel per wheel
 #: revolution, default revCount 16570 ticks per 180° turn.

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MapFileError
-from .mapfile import check_outputs, write_atomic
+from ..errors import MapFileError
+from .files import check_outputs, write_atomic
 
 #: map_saver's thresholds: p > 0.65 is occupied, p < 0.196 is free (the defaults everywhere)
 OCCUPIED_THRESH = 0.65
@@ -87,18 +87,6 @@ class RosMap:
 
 
 # ---------------------------------------------------------------------------- writing
-
-
-def cell_count_text(n: float) -> str:
-    """A grid's cells along a side, for a message: every digit while it is readable, else three
-    (an absurd resolution made a count of 300 digits)."""
-    return f"{n:.0f}" if n < 1e12 else f"{n:.3g}"
-
-
-def cells_area(n: int, resolution: float) -> float:
-    """Area of n cells. n·r·r, not n·r**2: a float's ** raises OverflowError (--resolution 1e300)
-    where * gives inf; and no cells have no area, not NaN (0·inf)."""
-    return n * resolution * resolution if n else 0.0
 
 
 def pgm_bytes(image: np.ndarray, comment: str | None = None) -> bytes:

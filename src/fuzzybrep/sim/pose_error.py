@@ -23,8 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scans.scan import Scan
-from .scans.scan import wrap
+from ..scans.scan import Scan, wrap
 from .simulate import SimRun
 
 MODELS = ("relocalised", "odometry", "true")

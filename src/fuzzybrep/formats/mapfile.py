@@ -19,27 +19,18 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from .brep import BRepMap, Region, Ring
-from .errors import GeometryError, MapFileError
+from ..brep import BRepMap, Region, Ring
+from ..errors import MapFileError
+from .compact import MAGIC, compact_from_bytes
+from .files import check_map, loads_json, write_atomic
 
 FORMAT = "fuzzybrep-map"
 VERSION = 1
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-#: the permissions a plain open(path, "w") would give: temporary files start private (0600)
-FILE_MODE = 0o666 & ~_umask()
 
 
 @dataclass
@@ -159,17 +150,6 @@ def _poses(rows, name: str = "scans.poses") -> np.ndarray:
     return p
 
 
-def check_map(crisp: BRepMap, path: str | os.PathLike) -> None:
-    """MapFileError naming the file, ring and vertex if a map read from ``path`` has a degenerate
-    or self-intersecting ring (the sweep and every α-cut need simple rings)."""
-    from .fuzzy import validate_map  # fuzzy imports this module
-
-    try:
-        validate_map(crisp)
-    except GeometryError as e:
-        raise MapFileError(path, str(e)) from None
-
-
 def write_map(path: str | os.PathLike, m: MapFile) -> int:
     """Write atomically (temporary file in the same folder, then rename); returns bytes written.
     ValueError, before anything is written, for poses ``read_map`` would refuse (not rows of x, y,
@@ -179,91 +159,6 @@ def write_map(path: str | os.PathLike, m: MapFile) -> int:
         m = replace(m, poses=_poses(m.poses, "poses"))
     data = json.dumps(to_json(m), separators=(",", ":")).encode()
     return write_atomic(path, data)
-
-
-def check_writable(path: str | os.PathLike) -> None:
-    """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
-    points: a folder, below a file, or in a folder that cannot be written. A command that works
-    for a long time before it writes checks first, so that the work is not lost at the end."""
-    if os.fspath(path).endswith(("/", os.sep)):
-        # Path() drops the slash: "--html out/" wrote a file named "out" where a folder was meant
-        raise MapFileError(path, "cannot write: the name ends with a slash, so it names a folder (give a file name)")
-    path = Path(path)
-    if path.is_dir():
-        raise MapFileError(path, "cannot write: it is a folder (give a file name)")
-    folder = path.parent
-    while not folder.exists() and folder != folder.parent:  # write_atomic creates the missing ones
-        folder = folder.parent
-    if not folder.is_dir():
-        raise MapFileError(path, f"cannot write: {folder} is a file, not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):  # also false on a read-only file system, even for root
-        raise MapFileError(path, f"cannot write: folder {folder} is not writable")
-
-
-def check_outputs(*paths: str | os.PathLike | None, inputs: tuple = ()) -> None:
-    """``check_writable`` for every output a command was given (None: not asked for), before it
-    writes any: a command whose last output cannot be written must not leave the first ones.
-
-    An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
-    keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
-    one output by another."""
-    given = [p for p in paths if p is not None]
-    for p in given:
-        check_writable(p)  # as given: a trailing slash says a folder was meant
-    given = [Path(p) for p in given]
-    for k, p in enumerate(given):
-        same = next((q for q in inputs if q is not None and _same_file(p, q)), None)
-        if same is not None:
-            raise MapFileError(p, f"cannot write: it is the input {same} as well, which writing would replace; "
-                                  f"give another name")
-        if any(_same_file(p, q) for q in given[:k]):
-            raise MapFileError(p, "cannot write: it is given for two outputs, and the second would replace the first")
-
-
-def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
-    """Whether two paths name one file (also through links, or one spelt relative)."""
-    a, b = Path(a), Path(b)
-    try:
-        return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
-    except (OSError, RuntimeError):  # a loop of links, a path too long: not provably the same
-        return False
-
-
-def write_atomic(path: str | os.PathLike, data: bytes) -> int:
-    """Write bytes so that the file is either the old one or the complete new one, never half."""
-    path = Path(path)
-    check_writable(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            os.fchmod(fd, FILE_MODE)
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError as e:
-        raise MapFileError(path, f"cannot write: {e.strerror or e}") from None
-    return len(data)
-
-
-def _json_integer(text: str) -> int | float:
-    """A JSON integer, or ±inf when it is too large for a float, as a JSON real that large
-    (1e400) already reads: every reader then refuses it as not finite, naming the place. Kept as
-    an int, it failed deep inside a reader (OverflowError on the way to a float, or Python's
-    ValueError for an integer of more than 4300 digits)."""
-    if len(text.lstrip("-")) <= 308:  # the largest float has 309 digits: a shorter integer fits
-        return int(text)
-    return float(text)  # float() parses any length: inf beyond the largest float
-
-
-def loads_json(raw: str | bytes):
-    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf."""
-    return json.loads(raw, parse_int=_json_integer)
 
 
 def read_map(path: str | os.PathLike) -> MapFile:
@@ -279,7 +174,6 @@ def read_map(path: str | os.PathLike) -> MapFile:
 
 def map_from_bytes(raw: bytes, path: str | os.PathLike = "<map>") -> MapFile:
     """``read_map`` of a file's bytes already read; MapFileError names ``path``."""
-    from .compact import MAGIC, compact_from_bytes  # here: compact builds on this module
 
     if raw.startswith(MAGIC):  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
         return MapFile(*compact_from_bytes(raw, path))

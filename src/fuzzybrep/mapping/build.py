@@ -18,15 +18,15 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import brep, evidence
-from .brep import FRONTIER, OBSTACLE, BRepMap, Ring
-from .errors import GeometryError, ScanValueError
+from ..arrays import cell_count_text
+from ..brep import FRONTIER, OBSTACLE, BRepMap, Ring, rings_to_shapely
+from ..errors import GeometryError, ScanValueError
+from ..fuzzy.membership import DEFAULT_TME_M
+from ..scans.filters import CLIPPED, BeamConfig, classify_all
+from ..scans.scan import Scan
+from . import evidence, union
 from .evidence import EvidenceConfig, Rays
-from .membership import DEFAULT_TME_M
-from .polygon import CLIPPED, PolygonConfig, ScanPolygon, scan_polygons
-from .rosmap import cell_count_text
-from .scans.filters import BeamConfig, classify_all
-from .scans.scan import Scan
+from .scan_polygon import PolygonConfig, ScanPolygon, scan_polygons
 
 
 @dataclass(frozen=True)
@@ -102,12 +102,12 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
             if progress:
                 progress("scan polygons", len(polygons), len(scans))
     with timer("union"):
-        polys = brep.rings_to_shapely([p.ring for p in polygons])
+        polys = rings_to_shapely([p.ring for p in polygons])
         # a centimetre is nothing against TME, and halves what GEOS has to overlay
-        geom = brep.union(polys, simplify=config.presimplify)
+        geom = union.union(polys, simplify=config.presimplify)
         if ev is not None:
             geom = geom.difference(evidence.carve(geom, ev, config.evidence))
-        geom = brep.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
+        geom = union.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
         if geom.is_empty:
             raise GeometryError(f"{_named(scans)} bound no free space with area above {config.min_piece_area:g} "
                                 f"{config.unit}² (too few beams with a return, or max_usable "

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ScanFormatError
-from .mapfile import write_atomic
-from .scans.scan import Scan, even_bearings, wrap
+from ..errors import ScanFormatError
+from ..formats.files import write_atomic
+from ..scans.scan import Scan, even_bearings, wrap
 from .world import FOOTPRINT, HOME, Route, World, builtin_floor, builtin_route, check_route
 
 __all__ = [
@@ -213,7 +213,7 @@ class DiffDrive:
         """The thesis's Pioneer 3-DX: E_d and E_b that UMBmark finds from Table I.2 (calibrated)
         or Table I.1 (before calibration), with Borenstein & Feng's E_b = 90°/(90° - α) and the
         signs Eq. 8 gives. Calibrated: E_d = 1.00102, E_b = 1.00062; before: 0.99087, 0.97990."""
-        from .odometry import BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, umbmark
+        from .umbmark import BORENSTEIN_EB_TURN, TABLE_I1, TABLE_I2, umbmark
 
         cw, ccw = TABLE_I2 if calibrated else TABLE_I1
         res = umbmark(cw, ccw, eb_turn_deg=BORENSTEIN_EB_TURN)

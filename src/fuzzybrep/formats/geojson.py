@@ -22,10 +22,11 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from .brep import BRepMap, locate_vertex, validate_ring
-from .errors import GeometryError, MapFileError
-from .mapfile import loads_json
-from .scans.read import is_float
+from ..arrays import is_float
+from ..brep import BRepMap, locate_vertex, validate_ring
+from ..errors import GeometryError, MapFileError
+from .files import loads_json
+
 
 def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
     """The crisp map in a GeoJSON file. MapFileError naming the file for anything wrong: unreadable,

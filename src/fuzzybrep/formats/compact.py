@@ -31,10 +31,9 @@ import os
 import numpy as np
 import shapely
 
-from .brep import BRepMap, Region, Ring, frontier_fm
-from .errors import GeometryError, MapFileError
-from .fuzzy import validate_map
-from .mapfile import check_map, loads_json, write_atomic
+from ..brep import BRepMap, Region, Ring, frontier_fm, validate_map
+from ..errors import GeometryError, MapFileError
+from .files import check_map, loads_json, write_atomic
 
 MAGIC = b"FBRC"
 VERSION = 1

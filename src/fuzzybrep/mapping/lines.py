@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..arrays import spans
+
 
 @dataclass(frozen=True)
 class LineConfig:
@@ -374,12 +376,6 @@ def run_ends(runs: np.ndarray, n: int) -> np.ndarray:
     out = np.zeros(n, np.int64)
     out[spans(runs[:, 0], count)] = np.repeat(runs[:, 1], count)
     return out
-
-
-def spans(start: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """Concatenated ranges start[k] .. start[k] + count[k] - 1, without a Python loop."""
-    count = np.asarray(count, np.int64)
-    return np.repeat(start, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
 
 
 def _empty() -> Lines:

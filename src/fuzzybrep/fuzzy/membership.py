@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MembershipFunctionError
+from ..errors import MembershipFunctionError
 
 #: The thesis's sensor errors (mm): LMS200 systematic error, and the UMBmark odometry error.
 THESIS_LASER_ERROR_MM = 15.0

@@ -30,10 +30,11 @@ import numpy as np
 import shapely
 from scipy import ndimage
 
-from .brep import FRONTIER, BRepMap
+from ..arrays import cell_count_text, cells_area
+from ..brep import FRONTIER, BRepMap
+from .files import write_atomic
 from .geojson import alpha_cut_collection, geometry_json
-from .mapfile import write_atomic
-from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, cell_count_text, cells_area, write_ros_map
+from .rosmap import FREE_THRESH, MAX_CELLS, OCCUPIED_THRESH, write_ros_map
 
 #: default levels of ``fuzzybrep export --geojson`` and ``--svg``
 DEFAULT_ALPHAS = (0.0, 0.25, 0.5, 0.75, 1.0)
