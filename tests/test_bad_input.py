@@ -451,11 +451,11 @@ def test_scans_with_no_free_space_name_the_scans(tmp_path, capsys):
     # before: "the map has no free space with area", naming neither the log nor the scans
     one = tmp_path / "one.csv"
     one.write_text("scan,time,x,y,theta,bearing,range\n0,0,0,0,0,0,1\n")
-    fails(capsys, ["build", one, "--out", tmp_path / "m.json", "--quiet"],
+    fails(capsys, ["build", one, "--out", tmp_path / "m.json", "--quiet", "--footprint", "0"],
           "the 1 scan one.csv:2 bound no free space with area above 0.05 m²")
     log = tmp_path / "a.log"
     room_log(log)
-    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet", "--max-usable", "1e-9"],
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet", "--max-usable", "1e-9", "--footprint", "0"],
           "the 4 scans a.log:1 to a.log:4 bound no free space with area above 0.05 m²", "max_usable 1e-09 m")
     assert not (tmp_path / "m.json").exists()
 

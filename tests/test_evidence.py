@@ -159,10 +159,13 @@ def test_scans_that_see_nothing_are_refused_clearly():
     # every beam without a return (or ending within cross_margin of the sensor) crosses no cell:
     # gather once failed on the empty batch with an IndexError, not the map's own error
     bearings = np.linspace(-np.pi / 2, np.pi / 2, 181)
+    no_footprint = dataclasses.replace(BuildConfig(), polygon=PolygonConfig(footprint=0.0))
     for r in (81.83, 0.1):
         scans = [Scan(np.full(181, r), bearings, np.zeros(3), float(t), 81.83) for t in range(3)]
         with pytest.raises(GeometryError, match="no free space"):
-            build_map(scans)
+            build_map(scans, no_footprint)
+    # with the robot's footprint (the default) where it stood is free, and nothing else
+    assert build_map(scans).crisp.area == pytest.approx(np.pi / 2 * (0.1 ** 2 + 0.3 ** 2), rel=0.1)
 
 
 # ------------------------------------------------------------------------- the rules of steps 2-5, by hand
@@ -363,7 +366,8 @@ def test_rays_in_batches_give_the_evidence_and_free_ranges_of_all_rays_at_once(n
              for k, p in enumerate(poses)]
     scans = [dataclasses.replace(s, ranges=np.where((np.arange(len(s.ranges)) % 4 == 0) & (k < 100), 60.0, s.ranges),
                                  max_range=60.0) for k, s in enumerate(scans)]
-    beams = classify_all(scans, BeamConfig(no_return_free=no_return_free), PolygonConfig())
+    beams = classify_all(scans, BeamConfig(no_return_free=no_return_free, no_return_chord=no_return_free > 0),
+                         PolygonConfig())
     cfg = evidence.EvidenceConfig(chunk=20_000)
     whole = rays_of(scans, beams)
     ev = evidence.gather(whole, cfg)

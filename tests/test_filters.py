@@ -210,9 +210,13 @@ def test_zero_and_max_ranges_are_no_return():
     """A range of 0 or at least max_range is no return (Scan.returns): unknown, no free space claimed
     by default, and never more than max_usable when no_return_free asks for some."""
     scan = Scan([0.0, 2.0, 81.83, 2.0, 90.0], even_bearings(5), np.zeros(3), 0.0, 81.83)
-    free, status = classify(scan)
+    free, status = classify(scan, filters.BeamConfig(no_return_chord=False))
     assert ((status == NONE) == ~scan.returns).all() and scan.returns.tolist() == [False, True, False, True, False]
     assert free.tolist() == [0.0, 2.0, 0.0, 2.0, 0.0]
+    # by default the beam between two returns claims up to the segment joining them (2 m at ±45°:
+    # 2 cos 45° straight ahead); the two at the fan's edges have a neighbour on one side only
+    free, status = classify(scan)
+    np.testing.assert_allclose(free, [0.0, 2.0, 2 * np.cos(np.pi / 4), 2.0, 0.0])
     cfg = filters.BeamConfig(no_return_free=20.0)  # more than the 8 m whose free space is trusted
     free, status = classify(scan, cfg)
     assert free[~scan.returns].tolist() == [cfg.max_usable] * 3

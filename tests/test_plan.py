@@ -803,8 +803,10 @@ def test_real_map_clearance_paths_stay_inside_and_keep_clear(real):
         assert_safe(p, free, 0.2)
         assert p.note is None, p.note
         short = pl.plan(s, g)
+        # never nearer the walls than the shortest path comes. (Its mean distance from them may be
+        # a little less: a short hop across an open hall detours to the medial axis and back.)
+        assert p.clearance >= short.clearance - 0.02
         gain.append(mean_clearance(p.path, free) - mean_clearance(short.path, free))
-    assert min(gain) > -0.02  # never much closer to the walls than the shortest path
     assert np.mean(gain) > 0.1  # and on average well away from them
 
 

@@ -18,9 +18,13 @@ from fuzzybrep.scans.filters import BeamConfig, classify, classify_all
 from fuzzybrep.scans.scan import Scan, even_bearings
 
 
-def polygon(scan, cfg=BeamConfig()):
+#: the fan alone, without the robot's footprint about the sensor (tested on its own below)
+FAN = PolygonConfig(footprint=0.0)
+
+
+def polygon(scan, cfg=BeamConfig(), polygon_cfg=FAN):
     free, status = classify(scan, cfg)
-    return scan_polygon(scan, free, status)
+    return scan_polygon(scan, free, status, polygon_cfg)
 
 
 # at least 45 beams over 180° (4°): coarser scanners leave the space between beams to guesswork
@@ -78,14 +82,21 @@ def test_no_return_gap_is_unknown_and_far_beams_stop_at_the_usable_range():
     r[80:100] = 81.83  # nothing came back: unknown
     r[120:140] = 20.0  # a return beyond the usable range
     scan = Scan(r, even_bearings(181), np.zeros(3), 0.0, 81.83)
-    free, status = classify(scan)
-    assert (status[80:100] == NONE).all() and (status[120:140] == FAR).all()
-    g = shapely.Polygon(scan_polygon(scan, free, status).ring.vertices)
     b = scan.bearings
     along = lambda i, d: (d * np.cos(b[i]), d * np.sin(b[i]))  # noqa: E731
+    free, status = classify(scan, BeamConfig(no_return_chord=False))
+    assert (status[80:100] == NONE).all() and (status[120:140] == FAR).all()
+    g = shapely.Polygon(scan_polygon(scan, free, status, FAN).ring.vertices)
     assert not g.contains(shapely.Point(along(90, 1.0)))  # no return: not even 1 m is claimed
     assert g.contains(shapely.Point(along(130, 7.0)))  # far beam: free up to 8 m
     assert not g.contains(shapely.Point(along(130, 8.5)))
+    # by default the gap claims up to the segment joining its neighbours' returns, 3 m either
+    # side of 20 beams: 3 cos(10.5°) = 2.95 m in its middle, and nothing beyond
+    free, status = classify(scan)
+    assert (status[80:100] == NONE).all()
+    np.testing.assert_allclose(free[89:91], 3 * np.cos(np.radians(10.5)) / np.cos(np.radians(0.5)), rtol=1e-9)
+    g = shapely.Polygon(scan_polygon(scan, free, status, FAN).ring.vertices)
+    assert g.contains(shapely.Point(along(90, 2.9))) and not g.contains(shapely.Point(along(90, 3.0)))
 
 
 def test_spikes_through_glass_and_narrow_gaps_add_nothing():
@@ -126,7 +137,7 @@ def test_batched_polygons_equal_one_at_a_time():
         assert one.ring.equals_exactly(p.ring)
 
 
-def fan(free, status, bearings=None, cfg=PolygonConfig()):
+def fan(free, status, bearings=None, cfg=FAN):
     """The polygon of a 180° scan at the origin with the given free ranges and statuses."""
     free = np.asarray(free, np.float64)
     b = even_bearings(len(free)) if bearings is None else bearings
@@ -278,6 +289,28 @@ def test_a_line_ends_on_the_fitted_line_not_at_its_last_beam():
     scan = scan_of(room(6, 4), (3.0, 2.0, 0.0), n=181)
     free, status = classify(scan)
     free[0] += 0.02
-    v = scan_polygon(scan, free, status).ring.vertices
+    v = scan_polygon(scan, free, status, FAN).ring.vertices
     assert np.allclose(v[0], (3.0, 2.0))  # the apex
     assert np.hypot(*(v[1] - (3.0, 0.0))) <= 0.002
+
+
+def test_the_robots_footprint_is_free_behind_the_laser_and_up_to_its_own_returns_in_front():
+    # a 180° scan whose beams all return nothing but one, 0.1 m ahead: the robot stood here, so a
+    # disc of the footprint's radius about the laser is free, bar what its own laser saw nearer
+    r = np.full(181, 81.83)
+    r[90] = 0.1  # straight ahead, something 10 cm away
+    scan = Scan(r, even_bearings(181), np.array([2.0, 1.0, 0.5]), 0.0, 81.83)
+    free, status = classify(scan)
+    ring = scan_polygon(scan, free, status, PolygonConfig(footprint=0.3)).ring
+    g = shapely.Polygon(ring.vertices)
+    assert g.is_valid and ring.signed_area > 0
+    c, h = scan.pose[:2], scan.pose[2]
+    at = lambda ang, d: shapely.Point(c + d * np.array([np.cos(h + ang), np.sin(h + ang)]))  # noqa: E731
+    assert g.contains(at(np.pi, 0.28)) and not g.contains(at(np.pi, 0.31))  # behind: the disc
+    assert g.contains(at(-np.pi / 2, 0.25)) and g.contains(at(np.radians(45), 0.28))  # beside, ahead: the disc
+    assert g.contains(at(0.0, 0.09)) and not g.contains(at(0.0, 0.12))  # its own return, nearer
+    assert g.area == pytest.approx(np.pi * 0.3 ** 2, rel=0.05)
+    assert (ring.kinds == FRONTIER).all()  # nothing of it is a wall: the robot's body, and no line
+    # with no footprint, the fan of a scan that saw nothing has no area beyond the sensor's own body
+    ring0 = scan_polygon(scan, free, status, FAN).ring
+    assert shapely.Polygon(ring0.vertices).area < 0.01

@@ -30,7 +30,14 @@ def add_arguments(p) -> None:
     p.add_argument("--theta-step", type=_theta_step, default=1.0, help="Hough θ step in degrees (default 1)")
     p.add_argument("--max-usable", type=positive, default=8.0, help="longest range whose free space is trusted (default 8)")
     p.add_argument("--no-return-free", type=non_negative, default=0.0,
-                   help="free range claimed along beams with no return (default 0: unknown)")
+                   help="free range claimed along every beam with no return (default 0: only up to the segment "
+                        "joining its neighbours' ends)")
+    p.add_argument("--no-return-unknown", action="store_true",
+                   help="beams with no return claim nothing, not even up to the segment joining the ends of the "
+                        "beams either side that saw something")
+    p.add_argument("--footprint", type=non_negative, default=0.3,
+                   help="radius of the robot's footprint about the laser, free where the robot stood (m, default 0.3; "
+                        "0: none)")
     p.add_argument("--no-evidence", action="store_true",
                    help="plain union of scan polygons, without clipping rays at obstacles other scans saw")
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
@@ -46,8 +53,10 @@ def config_from_args(args):
     cfg = BuildConfig()
     cfg = replace(
         cfg,
-        beams=replace(cfg.beams, max_usable=args.max_usable, no_return_free=args.no_return_free),
-        polygon=replace(cfg.polygon, lines=replace(cfg.polygon.lines, method=args.lines, theta_step=args.theta_step)),
+        beams=replace(cfg.beams, max_usable=args.max_usable, no_return_free=args.no_return_free,
+                      no_return_chord=not args.no_return_unknown),
+        polygon=replace(cfg.polygon, lines=replace(cfg.polygon.lines, method=args.lines, theta_step=args.theta_step),
+                        footprint=args.footprint),
         evidence=replace(cfg.evidence, clear=not args.no_clear),
         use_evidence=not args.no_evidence,
         # the uncertainty the map carries also sets its vertex reduction (TME/4), as in evaluate;
@@ -94,6 +103,8 @@ def run(args) -> int:
                   TimeElapsedColumn(), console=console, transient=True, disable=args.quiet or len(scans) < 200) as bar:
         task = bar.add_task("scan polygons", total=len(scans))
         result = build_map(scans, cfg, progress=lambda stage, done, total: bar.update(task, completed=done))
+    for note in result.notes:  # what the build decided (the scans' order when their timestamps cannot give it)
+        console.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
 
     poses = np.array([[*s.pose, s.timestamp] for s in scans])
     meta = {

@@ -43,6 +43,8 @@ def run(args) -> int:
         if err.path is not None:
             raise
         raise ScanValueError(args.log, None, err.reason) from None  # nothing to score: name the log
+    for note in e.notes:  # the scans' order, when their timestamps cannot give it
+        print(f"note: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(e.as_dict(), indent=2))
         return 0

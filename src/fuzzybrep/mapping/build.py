@@ -23,7 +23,8 @@ from ..brep import FRONTIER, OBSTACLE, BRepMap, Ring, rings_to_shapely
 from ..errors import GeometryError, ScanValueError
 from ..fuzzy.membership import DEFAULT_TME_M
 from ..scans.filters import CLIPPED, BeamConfig, classify_all
-from ..scans.scan import Scan
+from ..scans.order import in_scan_order
+from ..scans.scan import Scan, named
 from . import evidence, union
 from .evidence import EvidenceConfig, Rays
 from .scan_polygon import PolygonConfig, ScanPolygon, scan_polygons
@@ -58,6 +59,7 @@ class BuildResult:
     timings: dict[str, float]
     clipped_beams: int = 0
     beams: int = 0
+    notes: list[str] = field(default_factory=list)  #: what the build decided for the user (scan order)
 
     @property
     def seconds(self) -> float:
@@ -83,6 +85,8 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
     """The crisp B-rep map of a sequence of scans at known poses (thesis 3.2 (a)-(g))."""
     if not scans:
         raise ValueError("no scans to build a map from")
+    # newer evidence wins: timestamps that cannot say which is newer give way to the scans' order
+    scans, order_note = in_scan_order(scans, named(scans))
     timer = _Timer()
     with timer("beams"):
         beams = classify_all(scans, config.beams, config.polygon)
@@ -106,16 +110,18 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         # a centimetre is nothing against TME, and halves what GEOS has to overlay
         geom = union.union(polys, simplify=config.presimplify)
         if ev is not None:
-            geom = geom.difference(evidence.carve(geom, ev, config.evidence))
+            stood = np.array([s.pose[:2] for s in scans])  # the robot's footprints are not carved
+            geom = geom.difference(evidence.carve(geom, ev, config.evidence, stood, config.polygon.footprint))
         geom = union.clean(geom, config.min_piece_area, config.min_hole_area, config.simplify_tolerance)
         if geom.is_empty:
-            raise GeometryError(f"{_named(scans)} bound no free space with area above {config.min_piece_area:g} "
+            raise GeometryError(f"{named(scans)} bound no free space with area above {config.min_piece_area:g} "
                                 f"{config.unit}² (too few beams with a return, or max_usable "
                                 f"{config.beams.max_usable:g} {config.unit} too short)")
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):
         crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp
-    return BuildResult(crisp, polygons, timer.t, clipped, int(sum(len(s.ranges) for s in scans)))
+    return BuildResult(crisp, polygons, timer.t, clipped, int(sum(len(s.ranges) for s in scans)),
+                       [order_note] if order_note else [])
 
 
 def rays_of(scans: Sequence[Scan], beams) -> Rays:
@@ -189,12 +195,6 @@ def farthest_out(scans: Sequence[Scan], centre) -> tuple[str, float, str]:
     s = scans[k]
     what = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})" if beam is None else f"beam {beam + 1}'s return"
     return what, d, s.source or f"scan {k}"
-
-
-def _named(scans: Sequence[Scan]) -> str:
-    """The scans for a message, by where they came from ("file:line"): which log a failure is about."""
-    a, b = scans[0].source or "scan 1", scans[-1].source or f"scan {len(scans)}"
-    return f"the 1 scan {a}" if len(scans) == 1 else f"the {len(scans)} scans {a} to {b}"
 
 
 def _split_free(scans, beams, free: np.ndarray):

@@ -156,13 +156,15 @@ def batched(rays: "Rays | RayBatches") -> RayBatches:
     return rays if isinstance(rays, RayBatches) else RayBatches(lambda i: rays, 1, rays.origin_time)
 
 
-def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
+def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig(), stood=None, footprint: float = 0.0):
     """The obstacle cells the free space swallowed: occupied, hit ``carve_hits`` times or more, and
     more than ``carve_depth`` inside it (a cell-sized box each, united).
 
     A thin wall seen from both sides ends every ray at its own face, so no ray is clipped, yet the
     free space of the two sides meets (or overlaps by the pose error) and the wall is gone from the
-    union. Cutting these cells back out keeps every obstacle seen solidly as a boundary.
+    union. Cutting these cells back out keeps every obstacle seen solidly as a boundary. Cells
+    within ``footprint`` of where the robot ``stood`` ((k, 2) positions) are not: the robot was
+    there, so what other scans saw there came or went (a person walking beside it).
     """
     ny, nx = ev.shape
     cand = np.flatnonzero(ev.occupied & (ev.hits >= cfg.carve_hits))
@@ -170,6 +172,12 @@ def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig()):
         return shapely.GeometryCollection()
     cx = ev.origin[0] + (cand % nx + 0.5) * ev.cell
     cy = ev.origin[1] + (cand // nx + 0.5) * ev.cell
+    if stood is not None and footprint > 0 and len(stood):
+        from scipy.spatial import cKDTree
+
+        d, _ = cKDTree(np.asarray(stood, np.float64)).query(np.column_stack((cx, cy)), distance_upper_bound=footprint)
+        away = ~np.isfinite(d)
+        cx, cy = cx[away], cy[away]
     shapely.prepare(free)
     deep = shapely.contains_xy(free, cx, cy)
     r = cfg.carve_depth

@@ -45,6 +45,10 @@ class PolygonConfig:
     corner_angle: float = np.radians(5.0)
     corner_bridge: int = 2  #: stray single points between two lines that a corner may replace
     clearance: float = 0.05  #: free range kept along unknown beams (the sensor's own body)
+    #: the robot's footprint, a disc of this radius about the laser (map unit; 0: none): where the
+    #: robot stood is free by fact, not by beams. Behind the laser, outside its field of view, the
+    #: disc is free; in front, every beam is free up to the disc or its own return if nearer
+    footprint: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -67,7 +71,8 @@ def scan_polygons(
 
     free   per scan, (n,) how far each beam's ray is free (the range for a return; less where
            evidence or a filter shortened it; the usable maximum for a far beam; nothing for no
-           return: ``clearance`` is kept so that every polygon has area).
+           return: ``clearance`` is kept so that every polygon has area). Every beam is free at least
+           up to the robot's ``footprint`` or its own return, whichever is nearer.
     status per scan, (n,) RETURN, CLIPPED, FAR or NONE. Lines are fitted to RETURN beams only.
     """
     B = _Beams(scans, free, status, cfg)
@@ -114,6 +119,11 @@ class _Beams:
         n = int(self.offsets[-1])
         beta = np.concatenate([s.bearings for s in scans])
         f = np.maximum(np.concatenate([np.asarray(x, np.float64) for x in free]), cfg.clearance)
+        if cfg.footprint > 0:
+            # the robot stood here: nothing was within its footprint but what its own laser saw
+            r = np.concatenate([s.ranges for s in scans])
+            own = np.where((r > 0) & (r < np.repeat([s.max_range for s in scans], counts)), r, np.inf)
+            f = np.maximum(f, np.minimum(cfg.footprint, own))
         st = np.concatenate([np.asarray(x) for x in status]).astype(np.int8)
         sid = np.repeat(np.arange(len(scans)), counts)
         first, last = self.offsets[:-1], self.offsets[1:] - 1
@@ -191,7 +201,7 @@ class _Beams:
 
         eps = 1e-9
         half = np.flatnonzero(~self.full)
-        add(self.offsets[half] + _APEX, 0.0, 0.0, FRONTIER)  # the apex: the sensor itself
+        self._behind(add, half)
         runs = self.runs
         long_run = runs[:, 1] - runs[:, 0] >= 2
         in_long = np.zeros(len(self.f), bool)
@@ -213,6 +223,23 @@ class _Beams:
         if len(lines) and len(lr):
             self._line_vertices(add, lines, lr, last_kind)
         return np.concatenate(keys), np.column_stack((np.concatenate(xs), np.concatenate(ys))), np.concatenate(ks)
+
+    def _behind(self, add, half: np.ndarray) -> None:
+        """What closes a fan that is no full turn: the apex (the sensor itself), or with a
+        ``footprint`` an arc of it behind the sensor, from the last beam's bearing round to the
+        first's, a chord at most every 15°, all frontier (the robot's body, not seen)."""
+        r = self.cfg.footprint
+        if r <= 0 or not len(half):
+            add(self.offsets[half] + _APEX, 0.0, 0.0, FRONTIER)
+            return
+        first, last = self.offsets[half], self.offsets[half + 1] - 1
+        gap = self.beta[first] + 2 * np.pi - self.beta[last]
+        k = np.maximum(2, np.ceil(gap / np.radians(15.0)).astype(np.int64) + 1)  # points on the arc, ends included
+        j = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+        frac = j / np.repeat(k - 1, k)
+        ang = np.repeat(self.beta[last], k) + frac * np.repeat(gap, k)
+        # keys in [offset + _APEX, offset): after the previous scan's vertices, before the first beam's
+        add(np.repeat(first, k) + _APEX + 0.04 * frac, r * np.cos(ang), r * np.sin(ang), FRONTIER)
 
     def _line_vertices(self, add, lines: Lines, runs: np.ndarray, last_kind: np.ndarray):
         """Each line's ends on its first and last beam, and corners where consecutive lines meet.

@@ -93,3 +93,9 @@ def wrap(angle):
 def even_bearings(n: int, fov: float = np.pi) -> np.ndarray:
     """n beams spread evenly over the field of view, both ends included (CARMEN's convention)."""
     return np.linspace(-fov / 2, fov / 2, n)
+
+
+def named(scans) -> str:
+    """The scans for a message, by where they came from ("file:line"): which log a failure is about."""
+    a, b = scans[0].source or "scan 1", scans[-1].source or f"scan {len(scans)}"
+    return f"the 1 scan {a}" if len(scans) == 1 else f"the {len(scans)} scans {a} to {b}"

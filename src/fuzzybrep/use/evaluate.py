@@ -31,7 +31,8 @@ import shapely
 from ..errors import ScanValueError
 from ..mapping.scan_polygon import PolygonConfig
 from ..scans.filters import classify_all, depth_continuous
-from ..scans.scan import Scan
+from ..scans.order import in_scan_order
+from ..scans.scan import Scan, named
 
 #: ``seen_free`` looks at about this many (scan, point) pairs at a time, about 120 bytes each at
 #: its peak (30 MB); 4 000 000 took 430 MB, and more time, not less
@@ -248,6 +249,7 @@ class Evaluation:
     grid_cells: int
     resolution: float
     seconds: float
+    notes: list = field(default_factory=list)  #: what the evaluation decided (the scans' order)
 
     def as_dict(self) -> dict:
         """The JSON form. An undefined IoU (NaN: no free space in either at the cell centres) is
@@ -291,6 +293,8 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     config = config or BuildConfig()
     tme = config.tme if tme is None else tme
     t0 = time.perf_counter()
+    # came and went, like the evidence, needs the order the scans were taken in (``scans.order``)
+    scans, order_note = in_scan_order(scans, named(scans))
     kept, held = holdout_split(scans, holdout)
     if not held:
         raise ScanValueError(None, None, f"{len(scans)} scan(s): holding out every {ordinal(holdout)} leaves none to "
@@ -314,4 +318,5 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
     return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(went),
                       share(~unseen & ~went), scores["sweep"], iou, compact_bytes(fz), thesis,
-                      grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0)
+                      grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0,
+                      [order_note] if order_note else [])
