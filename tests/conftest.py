@@ -36,6 +36,9 @@ LOGS = {
     "intel": "carmen/intel-corrected.log.gz",
     "aces": "carmen/aces-corrected.log.gz",
     "freiburg": "carmen/freiburg-079-corrected.log.gz",
+    "orebro": "carmen/orebro-corrected.log.gz",
+    "fhw": "carmen/fhw-corrected.log.gz",
+    "campus": "carmen/freiburg-campus-corrected.log.gz",  # a minute to build: only with FUZZYBREP_BIG_LOGS=1
 }
 
 

@@ -271,3 +271,26 @@ def test_geojson_export_is_the_crisp_free_space(tmp_path):
     g = shapely.geometry.shape(d["features"][0]["geometry"])
     assert g.geom_type == "MultiPolygon" and g.is_valid and np.isclose(g.area, m.area)
     assert sum(len(p.interiors) for p in g.geoms) == 1
+
+
+def test_pockets_no_ray_entered_and_narrower_than_tme_are_taken_into_the_free_space():
+    # a room with three holes: a thin pocket bounded by frontier edges only (the shadow between
+    # two rays), a wide frontier pocket, and a thin obstacle (a wall edge: a return was seen)
+    from fuzzybrep.brep import FRONTIER, OBSTACLE, Region
+    from fuzzybrep.mapping.build import fill_pockets
+
+    def hole(poly, kind):
+        v = np.asarray(poly.exterior.coords)[:-1][::-1]
+        return Ring(v, np.full(len(v), kind, np.uint8))
+
+    shell = Ring(np.asarray(shapely.box(0, 0, 10, 10).exterior.coords)[:-1])
+    thin = hole(shapely.box(2, 2, 2.15, 6), FRONTIER)
+    wide = hole(shapely.box(5, 5, 7, 7), FRONTIER)
+    wall = hole(shapely.box(8, 2, 8.1, 6), OBSTACLE)
+    crisp = BRepMap((Region(shell, (thin, wide, wall)),))
+    out = fill_pockets(crisp, 0.2)
+    assert [len(r) for r in out.regions[0].holes] == [4, 4]
+    assert out.regions[0].holes[0] is wide and out.regions[0].holes[1] is wall
+    assert out.area == pytest.approx(crisp.area + 0.15 * 4)
+    assert fill_pockets(crisp, 0.1).regions[0].holes == crisp.regions[0].holes  # 0.15 m is not narrower than 0.1
+    assert fill_pockets(crisp, 0.0) is crisp
