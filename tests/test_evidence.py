@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from _synthetic import room, scan_of
@@ -383,3 +384,48 @@ def test_rays_in_batches_give_the_evidence_and_free_ranges_of_all_rays_at_once(n
         np.testing.assert_array_equal(ev_b.occupied, ev.occupied)
         assert ev_b.claims == (no_return_free > 0) and ev_b.samples
         np.testing.assert_array_equal(evidence.clip(batches, ev_b, c), free)
+
+
+@pytest.mark.parametrize("no_return_free", [0.0, 8.0])
+def test_the_grid_stored_where_rays_pass_gives_the_evidence_of_the_whole_grid(monkeypatch, no_return_free):
+    # two rooms 60 m apart, seen from inside, with returns 70 m out through a window (a far wall
+    # no ray reaches, as outdoors): the frame spans all of it, the tiles only the rooms; hits,
+    # occupied cells, edge-kind evidence and every free range are those of the whole grid
+    world = shapely.union_all([room(6, 4).difference(shapely.box(2.9, 1.9, 3.1, 2.1)),
+                               shapely.affinity.translate(room(6, 4), 60, 0), shapely.box(5, 1.9, 61, 2.1)])
+    rng = np.random.default_rng(5)
+    poses = np.column_stack((rng.uniform(0.8, 5.2, 60), rng.uniform(0.8, 3.2, 60), rng.uniform(-np.pi, np.pi, 60)))
+    poses[30:, 0] += 60
+    scans = [scan_of(world, p, n=181, fov=2 * np.pi * 180 / 181, t=float(k)) for k, p in enumerate(poses)]
+    # a window: some beams of every scan return from 70 m away
+    scans = [dataclasses.replace(s, ranges=np.where(np.arange(181) % 15 == 0, 70.0 + k % 3, s.ranges), max_range=81.0)
+             for k, s in enumerate(scans)]
+    beams = classify_all(scans, BeamConfig(no_return_free=no_return_free), PolygonConfig())
+    cfg = evidence.EvidenceConfig(chunk=20_000)
+    rays = build.ray_batches(scans, beams, cfg)
+    frame = evidence.grid_frame(rays, cfg.cell)
+    tiled = evidence.gather(rays, cfg, frame)
+    free = evidence.clip(rays, tiled, cfg)
+    with monkeypatch.context() as mp:
+        mp.setattr(evidence.Cells, "where_rays_pass", classmethod(lambda cls, shape, *a: cls(shape)))
+        whole = evidence.gather(rays, cfg, frame)
+        np.testing.assert_array_equal(evidence.clip(rays, whole, cfg), free)
+    assert whole.cells.tiles is None and tiled.cells.tiles is not None
+    ny, nx = whole.shape
+    assert tiled.cells.size < 0.3 * nx * ny  # the rooms and the tiles round them, not the 80 m frame
+    cx, cy = np.meshgrid(np.arange(nx), np.arange(ny))
+    k = tiled.cells.index(cx.ravel(), cy.ravel())
+    stored = k >= evidence.TILE**2
+    assert (free < np.concatenate([b.length for b in rays]) - 1e-9).sum() > 50  # evidence clipped rays
+    # what is not stored are returns more than a tile from every ray (its free range)
+    lost = np.flatnonzero((whole.hits > 0) & ~stored)
+    xy = whole.origin + (np.c_[lost % nx, lost // nx] + 0.5) * cfg.cell
+    ends = [np.c_[b.ox, b.oy, b.ox + b.length * b.cos, b.oy + b.length * b.sin] for b in rays]
+    swept = shapely.multilinestrings(np.concatenate(ends).reshape(-1, 2, 2))
+    assert len(lost) and shapely.distance(swept, shapely.points(xy)).min() > evidence.TILE * cfg.cell
+    for name in ("hits", "occupied"):
+        np.testing.assert_array_equal(getattr(tiled, name)[k][stored], getattr(whole, name)[stored])
+    # beside the rays' ends (where the map's edges are) the hits nearby are the same
+    e = np.concatenate(ends)[:, 2:]
+    np.testing.assert_array_equal(tiled.hits_within(0.1)[tiled.cell_index(*e.T)], whole.hits_within(0.1)[whole.cell_index(*e.T)])
+    assert not tiled.occupied[: evidence.TILE**2].any()  # the scratch tile

@@ -26,6 +26,8 @@ all scans saw:
    error) are cut back out (``carve``).
 
 The grid is scaffolding: it is dropped once the free ranges are known, and the map stays a B-rep.
+It is stored only where rays pass (``cells.Cells``), and counted cell by cell where samples fall,
+so that its memory and time follow the area the scans saw, not the bounding box of their returns.
 """
 
 from __future__ import annotations
@@ -37,7 +39,8 @@ from typing import Callable
 
 import numpy as np
 import shapely
-from scipy import ndimage
+
+from .cells import TILE, Cells
 
 
 @dataclass(frozen=True)
@@ -59,28 +62,38 @@ class EvidenceConfig:
 
 @dataclass
 class Evidence:
-    """Hit counts and the final occupied state of every cell."""
+    """Hit counts and the final occupied state of every stored cell (``cells``: where each cell
+    of the frame is stored; None: all of them, row by row)."""
 
     origin: np.ndarray  # (2,) world position of cell (0, 0)'s corner
     cell: float
     shape: tuple[int, int]  # (ny, nx)
-    hits: np.ndarray  # (ny*nx,) int32 number of returns per cell
-    occupied: np.ndarray  # (ny*nx,) bool
+    hits: np.ndarray  # (cells.size,) int32 number of returns per cell
+    occupied: np.ndarray  # (cells.size,) bool
     samples: list | None = None  # per batch and chunk of ``gather``, its samples that could stop a
     # ray (or the chunk's range to sample again), for ``clip`` to reuse (then dropped)
     claims: bool = False  # some beam with no return claims free space (``no_return_free``)
+    cells: Cells | None = None
+
+    def __post_init__(self) -> None:
+        if self.cells is None:
+            self.cells = Cells(tuple(self.shape))
 
     def cell_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         ny, nx = self.shape
         ix = np.clip(((x - self.origin[0]) / self.cell).astype(np.int64), 0, nx - 1)
         iy = np.clip(((y - self.origin[1]) / self.cell).astype(np.int64), 0, ny - 1)
-        return iy * nx + ix
+        return self.cells.index(ix, iy)
 
     def hits_within(self, radius: float) -> np.ndarray:
-        """(ny*nx,) bool: a hit lies within about ``radius`` of the cell (± one cell)."""
+        """(cells.size,) bool: a hit lies within about ``radius`` of the cell (± one cell)."""
         k = max(1, int(np.ceil(radius / self.cell)))
-        ny, nx = self.shape
-        return ndimage.binary_dilation((self.hits > 0).reshape(ny, nx), np.ones((2 * k + 1, 2 * k + 1), bool)).ravel()
+        hit = np.flatnonzero(self.hits > 0)
+        out = np.zeros(len(self.hits), bool)
+        out[self.cells.around(hit, [(dx, dy) for dx in range(-k, k + 1) for dy in range(-k, k + 1)])[0]] = True
+        if self.cells.tiles is not None:
+            out[: TILE * TILE] = False  # the scratch tile
+        return out
 
 
 @dataclass(frozen=True)
@@ -166,12 +179,14 @@ def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig(), stood=None
     within ``footprint`` of where the robot ``stood`` ((k, 2) positions) are not: the robot was
     there, so what other scans saw there came or went (a person walking beside it).
     """
-    ny, nx = ev.shape
     cand = np.flatnonzero(ev.occupied & (ev.hits >= cfg.carve_hits))
     if cand.size == 0 or free.is_empty:
         return shapely.GeometryCollection()
-    cx = ev.origin[0] + (cand % nx + 0.5) * ev.cell
-    cy = ev.origin[1] + (cand // nx + 0.5) * ev.cell
+    ix, iy = ev.cells.xy(cand)
+    row = np.lexsort((ix, iy))  # row by row, as the cells lie in the frame: the union's vertices start alike
+    ix, iy = ix[row], iy[row]
+    cx = ev.origin[0] + (ix + 0.5) * ev.cell
+    cy = ev.origin[1] + (iy + 0.5) * ev.cell
     if stood is not None and footprint > 0 and len(stood):
         from scipy.spatial import cKDTree
 
@@ -212,7 +227,7 @@ def _samples_short_of(x: np.ndarray, step: float, count: np.ndarray) -> np.ndarr
     return n.astype(np.int32)
 
 
-def _sample_cells(g, nx: int, count: np.ndarray, lo: int, hi: int):
+def _sample_cells(g, cells: Cells, count: np.ndarray, lo: int, hi: int):
     """The cell of every sample along rays lo..hi (``count`` samples each, see _sample_counts).
 
     Returns ray index, step index and cell index of every sample (ragged, flattened). The grid
@@ -226,16 +241,16 @@ def _sample_cells(g, nx: int, count: np.ndarray, lo: int, hi: int):
     kf = k.astype(np.float32)
     cx = (np.repeat(gx[lo:hi], n) + kf * np.repeat(dx[lo:hi], n)).astype(np.int32)
     cy = (np.repeat(gy[lo:hi], n) + kf * np.repeat(dy[lo:hi], n)).astype(np.int32)
-    return ray, k, cy * np.int32(nx) + cx
+    return ray, k, cells.index(cx, cy)
 
 
-def _cells_of(g, nx: int, ray: np.ndarray, k: np.ndarray) -> np.ndarray:
+def _cells_of(g, cells: Cells, ray: np.ndarray, k: np.ndarray) -> np.ndarray:
     """The cells of samples (ray, k): the same arithmetic as _sample_cells, so the same cells."""
     gx, gy, dx, dy = g
     kf = k.astype(np.float32)
     cx = (gx[ray] + kf * dx[ray]).astype(np.int32)
     cy = (gy[ray] + kf * dy[ray]).astype(np.int32)
-    return cy * np.int32(nx) + cx
+    return cells.index(cx, cy)
 
 
 def ray_samples(length: np.ndarray, step: float) -> np.ndarray:
@@ -261,6 +276,23 @@ def _chunks(length: np.ndarray, cfg: EvidenceConfig):
     return chunk_bounds(ray_samples(length, cfg.step), cfg.chunk)
 
 
+def _counted(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct cells of ``c`` and how often each occurs (int32), in the work of its samples:
+    a count over the span from the smallest to the largest (a few scans' cells are mostly near
+    one another), or by sorting where that span is much wider than the samples (a place seen
+    again later, stored far from where it was first)."""
+    if not len(c):
+        return np.zeros(0, np.int64), np.zeros(0, np.int32)
+    first = int(c.min())
+    span = int(c.max()) - first + 1
+    if span <= 4 * len(c) + 4096:
+        n = np.bincount(c - first, minlength=span)
+        cell = np.flatnonzero(n)
+        return cell + first, n[cell].astype(np.int32)
+    cell, n = np.unique(c, return_counts=True)
+    return cell, n.astype(np.int32)
+
+
 def _parallel(fn, jobs):
     """fn of every job, in order, run on the machine's cores (NumPy releases the GIL on large
     arrays). A generator: each result is taken as it comes, so a caller that folds them up holds
@@ -273,8 +305,10 @@ def _parallel(fn, jobs):
         yield from ex.map(fn, jobs)
 
 
-#: the evidence grid holds at most this many cells: gathering takes about 100 bytes a cell (4 GB
-#: here), and the real logs need 0.3-1.3 million
+#: the evidence grid's frame spans at most this many cells. Only the tiles where rays pass are
+#: stored (``cells``: some 30 bytes a stored cell), so the frame costs little itself; the limit
+#: is a plausibility check that names a corrupt range or pose (the real logs' frames span
+#: 0.3-1.3 million cells indoors, 37.5 million on freiburg-campus, whose returns reach 80 m)
 MAX_CELLS = 40_000_000
 #: coordinates at most this many cells from (0, 0): a float holds 1 part in 2**52, so beyond it
 #: resolves a coordinate to worse than 1/64 of a cell (at 1e15 m no free space was left; at 1e300
@@ -317,25 +351,26 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
     batches = batched(rays)
     origin, nx, ny = grid_frame(batches, cfg.cell) if frame is None else frame
     nx, ny = int(nx), int(ny)
-    ev = Evidence(origin, cfg.cell, (ny, nx), np.zeros(0, np.int32), np.zeros(0, bool))
+    cells = Cells.where_rays_pass((ny, nx), batches, origin, cfg.cell)
+    ev = Evidence(origin, cfg.cell, (ny, nx), np.zeros(0, np.int32), np.zeros(0, bool), cells=cells)
+    size = cells.size
 
     # times as ranks (int32, 0 = never): only their order counts, and a grid of them is half
     # the memory of float64 times (the evidence grid is this stage's peak: 1.3 M cells on ACES)
     ranks = time_ranks(batches.times)
     first_origin = [0]  # of every batch, in ``ranks``
-    hits = np.zeros(nx * ny, np.int32)
-    last_hit = np.zeros(nx * ny, np.int32) if cfg.clear else None
+    hits = np.zeros(size, np.int32)
+    last_hit = np.zeros(size, np.int32) if cfg.clear else None
     total, longest, ev.claims = 0, 0, False
     for b in batches:
         hc = ev.cell_index(b.hx, b.hy)
-        if len(hc):  # counted over the batch's cells only, as the crossings are (a few scans, one place)
-            first = int(hc.min())
-            seen = np.bincount(hc - first)
-            hits[first : first + len(seen)] += seen.astype(np.int32)
+        stored = hc >= (TILE * TILE)  # the rest lies far from every ray (the scratch tile)
+        cell, n = _counted(hc[stored])
+        hits[cell] += n.astype(np.int32)
         rank = b.spread(ranks[first_origin[-1] : first_origin[-1] + len(b.origin_time)])
         first_origin.append(first_origin[-1] + len(b.origin_time))
         if last_hit is not None:
-            np.maximum.at(last_hit, hc, rank[b.hit])
+            np.maximum.at(last_hit, hc[stored], rank[b.hit][stored])
         count = _sample_counts(b.length, cfg.step)
         total, longest = total + int(count.sum()), max(longest, int(count.max(initial=0)))
         ev.claims |= bool(_claims(b).any())
@@ -345,10 +380,16 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
         return ev
 
     # the newest hit anywhere next to a cell: a ray grazing a chair leg through pose noise is
-    # not evidence that the leg has gone
-    last_near = ndimage.maximum_filter(last_hit.reshape(ny, nx), size=3).ravel()
+    # not evidence that the leg has gone; and the hits next to it. Spread from the hit cells,
+    # which are few, to their 3 x 3 neighbourhoods
+    hit = np.flatnonzero(hits)
+    near, src = cells.around(hit, [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
+    last_near = np.zeros(size, np.int32)
+    np.maximum.at(last_near, near, last_hit[hit][src])
     del last_hit
-    hits_near = ndimage.correlate(hits.reshape(ny, nx), np.ones((3, 3), np.int32)).ravel()  # exact sums
+    hits_near = np.zeros(size, np.int32)
+    np.add.at(hits_near, near, hits[hit][src])
+    del near, src
 
     # sample every ray once, to its full length: the crossings use the part short of its end, and
     # clip (step 4) all of it. Only a cell that was hit can turn out occupied, so clip needs just
@@ -369,7 +410,7 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
         r_type = np.uint16 if len(b.length) <= 1 << 16 else np.int32
         counts, kept = [], []
         for lo, hi in _chunks(b.length, cfg):
-            ray, k, c = _sample_cells(g, nx, count, lo, hi)
+            ray, k, c = _sample_cells(g, cells, count, lo, hi)
             crossing = k < np.repeat(short[lo:hi], count[lo:hi])
             r_, c_ = ray[crossing], c[crossing]
             # one crossing per ray and cell; for clearing, only crossings newer than the nearby hits
@@ -379,14 +420,7 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
             first_in_cell[1:] |= r_[1:] != r_[:-1]
             c_ = c_[first_in_cell]
             newer = rank[r_[first_in_cell]] > last_near[c_]
-            # counted over the cells from the chunk's first to its last only: a chunk is a few
-            # scans from one place, and two counts over the whole grid per chunk cost more than
-            # its samples
-            first = int(c_.min()) if len(c_) else 0
-            c_ -= first
-            span = int(c_.max()) + 1 if len(c_) else 0
-            near, all_ = (np.bincount(x, minlength=span).astype(np.int32) for x in (c_[newer], c_))
-            counts.append((first, near, all_))
+            counts.append((_counted(c_[newer]), _counted(c_)))
             stop = np.flatnonzero(can_stop[c] if claims is None else can_stop[c] | claims[ray])
             if len(stop) > cfg.cache * len(ray) / total:
                 kept.append((lo, hi))
@@ -395,13 +429,13 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
                 kept.append(((lo, hi), ray[stop].astype(r_type), k[stop].astype(k_type)))
         return counts, kept
 
-    after_near = np.zeros(nx * ny, np.int32)
-    crossed = np.zeros(nx * ny, np.int32)
+    after_near = np.zeros(size, np.int32)
+    crossed = np.zeros(size, np.int32)
     ev.samples = []
     for counts, kept in _parallel(crossings, range(len(batches))):
-        for first, near, all_ in counts:
-            after_near[first : first + len(near)] += near
-            crossed[first : first + len(all_)] += all_
+        for (c_near, n_near), (c_all, n_all) in counts:
+            after_near[c_near] += n_near
+            crossed[c_all] += n_all
         ev.samples.append(kept)
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
@@ -412,7 +446,7 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
 
 
 def bridged(ev: Evidence, span: float) -> np.ndarray:
-    """(ny*nx,) bool: occupied, or on the segment between two occupied cells ``span`` or less apart.
+    """(cells.size,) bool: occupied, or on the segment between two occupied cells ``span`` or less apart.
 
     Step 4's evidence for beams with no return. Glass answers a beam now and then, so its
     returns, even from many scans, are points with gaps, and a beam through a gap sees nothing
@@ -429,8 +463,7 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
     out = ev.occupied.copy()
     if len(occ) < 2:
         return out
-    grid = ev.occupied.reshape(ny, nx)
-    iy, ix = np.divmod(occ, nx)
+    ix, iy = ev.cells.xy(occ)
     r = span / ev.cell
     m = int(np.floor(r))
     for dy in range(0, m + 1):
@@ -442,14 +475,14 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
             jx, jy = ix + dx, iy + dy
             inside = (jx >= 0) & (jx < nx) & (jy < ny)
             a = np.flatnonzero(inside)
-            a = a[grid[jy[a], jx[a]]]
+            a = a[ev.occupied[ev.cells.index(jx[a], jy[a])]]
             if not len(a):
                 continue
             n = 2 * gap  # half-cell steps
             t = np.arange(1, n) / n
             px = np.rint(ix[a, None] + t * dx).astype(np.int64)
             py = np.rint(iy[a, None] + t * dy).astype(np.int64)
-            out[(py * nx + px).ravel()] = True
+            out[ev.cells.index(px.ravel(), py.ravel())] = True
     return out
 
 
@@ -457,7 +490,6 @@ def clip(rays: "Rays | RayBatches", ev: Evidence, cfg: EvidenceConfig = Evidence
     """Each ray's free range, stopped at the first occupied cell in front of its own end (step 4),
     for all rays of all batches in order."""
     batches = batched(rays)
-    nx = ev.shape[1]
     wide = bridged(ev, cfg.no_return_bridge) if cfg.no_return_bridge > 0 and ev.claims else None
     samples = ev.samples
     ev.samples = None  # used once: give the memory back
@@ -472,9 +504,9 @@ def clip(rays: "Rays | RayBatches", ev: Evidence, cfg: EvidenceConfig = Evidence
         for chunk in samples[i] if samples is not None else _chunks(b.length, cfg):
             if len(chunk) == 3:  # kept by gather: the samples that could stop their rays
                 _, ray, k = chunk
-                c = _cells_of(g, nx, ray, k)
+                c = _cells_of(g, ev.cells, ray, k)
             else:
-                ray, k, c = _sample_cells(g, nx, count, *chunk)
+                ray, k, c = _sample_cells(g, ev.cells, count, *chunk)
             d = k * cfg.step
             occ = ev.occupied[c] if wide is None else np.where(b.hit[ray], ev.occupied[c], wide[c])
             occ &= d < own_end[ray]
