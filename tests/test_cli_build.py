@@ -152,3 +152,16 @@ def test_consolidate_says_when_no_pair_was_found(tmp_path, capsys):
     assert cli.main(["build", str(log), "--out", str(out), "--consolidate"]) == 0
     err = capsys.readouterr().err
     assert "(4 pairs consolidated)" in err and "note: --consolidate" not in err
+
+
+def test_a_command_imports_only_what_it_needs():
+    # start-up counts in every command's time: the parser of `build` alone, without the other
+    # commands' modules (the planner's SciPy Voronoi, the simulator) or SciPy at all
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom fuzzybrep import cli\ntry:\n    cli.main(['build', '--help'])\nexcept SystemExit:\n    pass\n"
+            "from fuzzybrep.mapping.build import build_map\n"
+            "print(sorted(m for m in ('scipy', 'matplotlib', 'fuzzybrep.use.plan', 'fuzzybrep.sim.world') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "[]"

@@ -37,10 +37,12 @@ COMMANDS = [
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
 
 
-def parser() -> argparse.ArgumentParser:
+def parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: every command's, or only command module ``only``'s (what a run
+    of that command needs: importing every command module took longer than some commands run)."""
     p = argparse.ArgumentParser(prog="fuzzybrep", description="Fuzzy boundary-representation maps from 2-D laser scans.")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    for name in COMMANDS if only is None else [only]:
         mod = importlib.import_module(f".commands.{name}", __package__)
         sp = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         sp._negative_number_matcher = _NEGATIVE_NUMBER  # no option of any command looks like a number
@@ -49,8 +51,18 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _command(argv: list[str]) -> str | None:
+    """The command module a command line names (its first word), if any: "alpha-cut" is alpha_cut."""
+    first = next((a for a in argv if not a.startswith("-")), "")
+    module = first.replace("-", "_")
+    return module if module in COMMANDS and module.replace("_", "-") == first else None
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    # options before the command (fuzzybrep --help) or no known command: the whole parser says so
+    only = _command(argv) if argv and not argv[0].startswith("-") else None
+    args = parser(only).parse_args(argv)
     try:
         return int(args._run(args) or 0)
     except FuzzyBrepError as e:
