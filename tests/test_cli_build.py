@@ -165,3 +165,22 @@ def test_a_command_imports_only_what_it_needs():
             "print(sorted(m for m in ('scipy', 'matplotlib', 'fuzzybrep.use.plan', 'fuzzybrep.sim.world') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
+
+
+def test_long_commands_show_their_steps_on_a_terminal_only(capsys, monkeypatch):
+    import rich.console
+
+    from fuzzybrep.commands._progress import steps
+
+    with steps(2) as step:  # standard error is no terminal here: nothing on it
+        step("reading the map")
+        step("α-cut at α = 0.5")
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(rich.console.Console, "is_terminal", property(lambda self: True))
+    with steps(2) as step:
+        step("reading the map")
+        step("α-cut at α = 0.5")
+    assert "α-cut at α = 0.5" in capsys.readouterr().err
+    with steps(2, quiet=True) as step:
+        step("reading the map")
+    assert capsys.readouterr().err == ""

@@ -9,6 +9,7 @@ import sys
 from ..formats.files import check_outputs, write_atomic
 from ..formats.geojson import alpha_cut_collection
 from ._maps import add_map_argument, load_map
+from ._progress import steps
 from ._types import alpha
 
 NAME = "alpha-cut"
@@ -26,8 +27,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_outputs(args.out, inputs=(args.map,))
-    fuzzy = load_map(args)
-    cuts = [fuzzy.alpha_cut(a, args.method) for a in args.alpha]
+    with steps(1 + len(args.alpha)) as step:
+        step(f"reading {args.map}")
+        fuzzy = load_map(args)
+        cuts = []
+        for a in args.alpha:
+            step(f"α-cut at α = {a:g} ({args.method})")
+            cuts.append(fuzzy.alpha_cut(a, args.method))
     data = json.dumps(alpha_cut_collection(cuts, fuzzy.crisp), separators=(",", ":"))
     if args.out:
         write_atomic(args.out, data.encode())

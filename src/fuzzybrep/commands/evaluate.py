@@ -8,6 +8,7 @@ import sys
 
 from ..errors import ScanValueError
 from ._logopts import add_log_arguments, read_log, read_notes
+from ._progress import steps
 from ._types import number, positive
 from .grid import check_grid_size
 
@@ -31,14 +32,15 @@ def run(args) -> int:
     from dataclasses import replace
 
     from ..mapping.build import BuildConfig
-    from ..use.evaluate import evaluate_log, ordinal
+    from ..use.evaluate import EVALUATION_STEPS, evaluate_log, ordinal
     scans, report = read_log(args)
     for line in read_notes(report):  # on standard error: --json's output stays one JSON document
         print(line, file=sys.stderr)
     cfg = BuildConfig() if args.tme is None else replace(BuildConfig(), tme=args.tme)
     check_grid_size(args.log, scans, args.resolution, cfg.beams.max_usable)
     try:
-        e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution)
+        with steps(len(EVALUATION_STEPS)) as step:
+            e = evaluate_log(scans, args.holdout, cfg, resolution=args.resolution, progress=step)
     except ScanValueError as err:
         if err.path is not None:
             raise

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from ._maps import add_map_argument, load_map
+from ._progress import steps
 from ._types import alpha, file_name, number
 
 NAME = "export"
@@ -45,18 +46,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import MapFileError
-    from ..formats.export import (
-        DEFAULT_ALPHAS,
-        alpha_cut_features,
-        crisp_features,
-        membership_raster,
-        metres_per_unit,
-        write_geojson,
-        write_ros,
-    )
-    from ..formats.files import check_outputs, write_atomic
-    from ..formats.svg import svg_document
+    from ..formats.export import DEFAULT_ALPHAS
+    from ..formats.files import check_outputs
 
     if not (args.geojson or args.ros or args.svg or args.compact):
         print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
@@ -65,19 +56,41 @@ def run(args: argparse.Namespace) -> int:
     ros = [Path(args.ros) / f"{name}.{ext}" for ext in ("yaml", "pgm")] if args.ros else []
     check_outputs(args.geojson, args.svg, args.compact, *ros, inputs=(args.map,))
     t0 = time.perf_counter()
-    fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
-    cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
+    with_cuts = bool(args.geojson or args.svg)
+    total = 1 + len(alphas) * with_cuts + sum(bool(x) for x in (args.geojson, args.svg, args.compact, args.ros))
+    with steps(total) as step:
+        step(f"reading {Path(args.map).name}")
+        fuzzy = load_map(args)
+        cuts = []
+        for a in alphas if with_cuts else []:
+            step(f"α-cut at α = {a:g} ({args.method})")
+            cuts.append(fuzzy.alpha_cut(a, args.method))
+        _write(args, fuzzy, cuts, alphas, name, step)
+    print(f"{time.perf_counter() - t0:.2f} s")
+    return 0
+
+
+def _write(args, fuzzy, cuts, alphas, name, step) -> None:
+    """Each output export was asked for, a step of the progress bar each."""
+    from ..errors import MapFileError
+    from ..formats.export import alpha_cut_features, crisp_features, membership_raster, metres_per_unit, write_geojson, write_ros
+    from ..formats.files import write_atomic
+    from ..formats.svg import svg_document
+
     if args.geojson:
+        step(f"writing {args.geojson}")
         n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
         print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
               f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
     if args.svg:
+        step(f"writing {args.svg}")
         support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
         text = svg_document(fuzzy, cuts, support, title=Path(args.map).name)
         n = write_atomic(args.svg, text.encode("utf-8"))
         print(f"{args.svg}: {n} bytes")
     if args.compact:
+        step(f"writing {args.compact}")
         from ..formats.compact import stored_map, write_compact
 
         mfs = fuzzy.table.to_dicts()
@@ -87,6 +100,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
     if args.ros:
         # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
+        step(f"membership raster for {args.ros}")
         scale = metres_per_unit(fuzzy.unit)
         ros_unit = "m" if scale else fuzzy.unit
         try:
@@ -101,5 +115,3 @@ def run(args: argparse.Namespace) -> int:
         if not scale:
             print(f"note: the map's unit {fuzzy.unit!r} is not m, cm or mm: the YAML's resolution and origin are "
                   f"in {fuzzy.unit!r}, not in metres as ROS expects", file=sys.stderr)
-    print(f"{time.perf_counter() - t0:.2f} s")
-    return 0

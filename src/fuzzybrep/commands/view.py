@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from ._maps import add_map_argument, load_map
+from ._progress import steps
 from ._types import number
 
 NAME = "view"
@@ -32,10 +33,13 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(args.html, inputs=(args.map, args.path))
     t0 = time.perf_counter()
-    m = read_map(args.map)
-    fuzzy = load_map(args, m)
-    path = read_path(args.path) if args.path else None
-    n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas)
+    with steps(2) as step:
+        step(f"reading {Path(args.map).name}")
+        m = read_map(args.map)
+        fuzzy = load_map(args, m)
+        path = read_path(args.path) if args.path else None
+        step(f"α-cuts at {args.alphas} levels into {args.html}")
+        n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas)
     extras = [f"{len(m.poses)} poses"] if m.poses is not None else []
     if path is not None:
         extras.append(f"a path of {len(path)} points")

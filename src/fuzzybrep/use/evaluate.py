@@ -275,8 +275,14 @@ def free_space_iou(free, grid) -> float:
     return float(np.logical_and(in_map, in_grid).sum() / union) if union else float("nan")
 
 
+#: what ``evaluate_log`` does, in order: the steps its ``progress`` is told of
+EVALUATION_STEPS = ("building the map from the kept scans", "fuzzifying it", "scoring the held-out endpoints",
+                    "small isolated objects", "returns no kept scan saw", "what came and went",
+                    "the occupancy grid of the kept scans")
+
+
 def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: float | None = None,
-                 resolution: float = 0.05, max_range: float = 5.0) -> Evaluation:
+                 resolution: float = 0.05, max_range: float = 5.0, progress=None) -> Evaluation:
     """Build from all scans but every ``holdout``-th and score the held-out ones (see module doc).
 
     The band is the map's support at α = 0: the exact one (the Extension principle) and the
@@ -302,17 +308,26 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     pts = endpoints(held, max_range)
     if not len(pts):
         raise ScanValueError(None, None, f"no held-out scan has a return within {max_range:g} m: nothing to score")
+    step = iter(EVALUATION_STEPS)
+    tell = (lambda: progress(next(step))) if progress else (lambda: None)  # noqa: E731
+    tell()
     crisp = build_map(kept, config).crisp
+    tell()
     fz = fuzzify(crisp, tme=tme)
+    tell()
     scores = {}
     for method in ("exact", "sweep"):
         cut = fz.alpha_cut(0.0, method)
         scores[method] = score(pts, cut.inner, cut.outer)
     viol = scores["exact"].violated
+    tell()
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
+    tell()
     unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
+    tell()
     went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme)
     share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
+    tell()
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
     iou = free_space_iou(crisp.to_shapely(), grid)
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
