@@ -23,7 +23,11 @@ in one run:
   grid mapper, each in a fresh process (``peak.py``);
 * scaling: the pipeline on the first 1/8, 1/4, 1/2 and all scans of the largest log;
 * α-cuts on the largest map: reading them from the stored lines against GEOS buffer, and the
-  sweep's approximation error against the exact fuzzification.
+  sweep's approximation error against the exact fuzzification;
+* the whole commands (``commands.py``), on every log in ``DIR/carmen``: ``fuzzybrep build LOG``
+  against ``fuzzybrep grid LOG --resolution 0.05``, time and peak memory, interleaved in fresh
+  processes, and build's time on prefixes of freiburg-campus (issue 17: ≤ 3×, ≤ 1× and 8× the
+  scans in ≤ 9× the time).
 
 Writes the Markdown report (and a JSON twin) and, with --readme, replaces the block between
 ``<!-- benchmark:start -->`` and ``<!-- benchmark:end -->`` in the README with it (``blocks.py``).
@@ -57,6 +61,7 @@ from fuzzybrep.mapping.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 import peak  # noqa: E402
+import commands  # noqa: E402  (the whole commands, build against grid)
 from blocks import BlockError, demote_headings, write_block  # noqa: E402
 
 
@@ -212,7 +217,8 @@ def kb(n: int) -> str:
     return f"{n / 1024:.1f} kB"
 
 
-def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict, demo: str = "") -> str:
+def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict, demo: str = "",
+             whole: tuple[list, dict | None] | None = None) -> str:
     L = []
     L += [f"Measured by `python benchmarks/run.py` on {env['when']} ({env['machine']}, {env['cpus']} cores, "
           f"Python {env['python']}, GEOS {env['geos']}); median of {env['repeat']} runs. Absolute times move with "
@@ -286,6 +292,10 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
         for s in scaling:
             L.append(f"| {s['scans']} | {s['seconds']:.2f} | {1000 * s['seconds'] / s['scans']:.2f} | "
                      f"{s['seconds'] / base['seconds']:.2f} | {s['scans'] / base['scans']:.0f} |")
+    if whole:
+        L += ["", "**The whole commands** (`fuzzybrep build LOG` against `fuzzybrep grid LOG --resolution 0.05`, "
+              "each a fresh process with its start-up, interleaved, median time and largest peak resident memory "
+              f"of {env['repeat']} runs: `benchmarks/commands.py`)", "", commands.markdown(*whole).rstrip("\n")]
     if alpha_md:
         # the α-cut script's own headings become bold lines, so the README keeps one "## Results"
         L += ["", demote_headings(alpha_md)]
@@ -317,10 +327,15 @@ def main(argv=None) -> int:
     alpha_md = alpha_run(maps[largest[0]], [0.0, 0.25, 0.5, 0.75, 1.0], args.repeat, f"{largest[0]} map")
     env = {"when": time.strftime("%Y-%m-%d"), "machine": platform.machine(), "cpus": os.cpu_count(),
            "python": platform.python_version(), "geos": shapely.geos_version_string, "repeat": args.repeat}
+    every = sorted((d / "carmen").glob("*.log.gz"))
+    whole = [commands.measure(p, args.repeat) for p in every]
+    campus = d / "carmen" / "freiburg-campus-corrected.log.gz"
+    grow = commands.scaling(campus, repeat=args.repeat) if campus.is_file() and not args.no_scaling else None
     runs, seconds = demo_runs()
-    md = markdown(results, scaling, alpha_md, env, demo_md(runs, seconds))
+    md = markdown(results, scaling, alpha_md, env, demo_md(runs, seconds), (whole, grow))
     Path(args.out).write_text(md)
-    Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling}, indent=1, default=float))
+    Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling,
+                                                             "commands": whole, "commands_scaling": grow}, indent=1, default=float))
     print(md)
     if args.readme:
         try:

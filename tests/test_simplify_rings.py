@@ -120,3 +120,31 @@ def test_any_crowded_map_keeps_its_topology(g, tol):
     g = polygonal(shapely.make_valid(g))
     out = union.simplify_rings(g, tol)
     check_topology(g, out, tol)
+
+
+def test_a_hole_touching_another_at_a_vertex_is_not_swallowed_by_it():
+    # hole A keeps its corner V, where hole B touches it; reduced alone, A's edge from V swings
+    # over the shallow bay B lies in (3 cm deep at 5 cm), and B would lie inside A though no
+    # edge crosses another (the folding the repair must find at a shared vertex)
+    a = [(0, 1), (1, 0), (1.5, 0.03), (2, 0), (3, 1)]
+    b = [(1, 0), (1.3, 0.01), (1.2, 0.004)]
+    g = shapely.Polygon([(-1, -1), (4, -1), (4, 2), (-1, 2)], [a, b])
+    assert g.is_valid
+    assert shapely.simplify(shapely.Polygon(a), 0.05, preserve_topology=True).contains(shapely.Polygon(b).centroid)
+    out = union.simplify_rings(g, 0.05)
+    check_topology(g, out, 0.05)
+    assert len(out.interiors) == 2
+
+
+def test_a_swallowed_hole_is_given_back_even_when_one_step_is_not_enough():
+    # hole B lies in a shallow bay of hole A's wall: A's reduced wall swallows it; the bay's
+    # farthest vertex (3, 0.04) does not give it back, the next step (0.5, 0.03) does
+    a = [(0, 0), (0.5, 0.03), (1, 0.035), (1.5, 0.03), (3, 0.04), (4, 0), (4, 1), (0, 1)][::-1]
+    b = [(0.95, 0.018), (1.05, 0.018), (1.0, 0.025)]
+    g = shapely.Polygon([(-1, -1), (5, -1), (5, 2), (-1, 2)], [a, b])
+    assert g.is_valid
+    alone = shapely.simplify(shapely.Polygon(a), 0.05, preserve_topology=True)
+    assert alone.contains(shapely.Polygon(b))
+    out = union.simplify_rings(g, 0.05)
+    check_topology(g, out, 0.05)
+    assert len(out.interiors) == 2
