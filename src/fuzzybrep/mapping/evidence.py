@@ -276,21 +276,29 @@ def _chunks(length: np.ndarray, cfg: EvidenceConfig):
     return chunk_bounds(ray_samples(length, cfg.step), cfg.chunk)
 
 
-def _counted(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct cells of ``c`` and how often each occurs (int32), in the work of its samples:
-    a count over the span from the smallest to the largest (a few scans' cells are mostly near
-    one another), or by sorting where that span is much wider than the samples (a place seen
-    again later, stored far from where it was first)."""
+def _counted(c: np.ndarray) -> tuple[int | np.ndarray, np.ndarray]:
+    """How often each cell occurs in ``c``, in the work of its samples: counts over the span from
+    the smallest cell to the largest, as (the first cell, counts), where that span is not much
+    wider than the samples (a few scans' cells lie mostly near one another); else the distinct
+    cells and their counts, by sorting (a place seen again later, stored far from where it was
+    first seen). ``_add`` adds either to a grid."""
     if not len(c):
-        return np.zeros(0, np.int64), np.zeros(0, np.int32)
+        return 0, np.zeros(0, np.int32)
     first = int(c.min())
     span = int(c.max()) - first + 1
-    if span <= 4 * len(c) + 4096:
-        n = np.bincount(c - first, minlength=span)
-        cell = np.flatnonzero(n)
-        return cell + first, n[cell].astype(np.int32)
+    if span <= 4 * len(c) + 65536:
+        return first, np.bincount(c - first, minlength=span).astype(np.int32)
     cell, n = np.unique(c, return_counts=True)
     return cell, n.astype(np.int32)
+
+
+def _add(grid: np.ndarray, counted) -> None:
+    """``_counted``'s counts added to ``grid``."""
+    where, n = counted
+    if isinstance(where, np.ndarray):
+        grid[where] += n
+    else:
+        grid[where : where + len(n)] += n
 
 
 def _parallel(fn, jobs):
@@ -365,8 +373,7 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
     for b in batches:
         hc = ev.cell_index(b.hx, b.hy)
         stored = hc >= (TILE * TILE)  # the rest lies far from every ray (the scratch tile)
-        cell, n = _counted(hc[stored])
-        hits[cell] += n.astype(np.int32)
+        _add(hits, _counted(hc[stored]))
         rank = b.spread(ranks[first_origin[-1] : first_origin[-1] + len(b.origin_time)])
         first_origin.append(first_origin[-1] + len(b.origin_time))
         if last_hit is not None:
@@ -433,9 +440,9 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
     crossed = np.zeros(size, np.int32)
     ev.samples = []
     for counts, kept in _parallel(crossings, range(len(batches))):
-        for (c_near, n_near), (c_all, n_all) in counts:
-            after_near[c_near] += n_near
-            crossed[c_all] += n_all
+        for near, all_ in counts:
+            _add(after_near, near)
+            _add(crossed, all_)
         ev.samples.append(kept)
     cleared = (after_near >= cfg.clear_crossings) & (after_near > hits_near)
     # a cell hit once or twice but crossed by many times more rays is noise at the edge of
