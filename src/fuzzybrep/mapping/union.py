@@ -219,8 +219,8 @@ def simplify_rings(geom, tolerance: float):
       hole, without any crossing: a "jump") has its segments near that vertex split likewise.
 
     Repeated until nothing clashes (each step restores vertices of the original rings, which did
-    not clash), the maps are those GEOS gives whole (Freiburg 079: 0.1 % of the area moves, 0.7 %
-    more vertices).
+    not clash), the maps are those GEOS gives whole (Freiburg 079: 0.09 % of the area moves, 0.9 %
+    more vertices; freiburg-campus: 0.002 %, 0.03 %).
     """
     parts = shapely.get_parts(polygonal(geom))
     if not len(parts):
@@ -259,6 +259,8 @@ def simplify_rings(geom, tolerance: float):
         if not bad.any():
             break
         added, a, b = _split(xy, ring, start, size, v[bad], w[bad], tolerance)
+        if not len(added):  # every clashing segment an original edge already: nothing left to give back
+            break
         fresh[:] = False
         fresh[added] = True
         kept[added] = True
