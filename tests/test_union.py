@@ -324,3 +324,16 @@ def test_clipper_hands_coordinates_too_large_for_its_integers_to_geos(monkeypatc
     far = [shapely.box(1e12, 0, 1e12 + 2, 2), shapely.box(1e12 + 1, 1, 1e12 + 3, 3)]
     monkeypatch.setattr(union, "clipper_union", lambda *a: pytest.fail("Clipper2 was given coordinates of 1e12"))
     assert np.isclose(union.union(far).area, 7.0)
+
+
+def test_the_clipper_tree_split_between_two_processes_is_the_tree_in_one(monkeypatch):
+    # pyclipr holds the GIL while it unites: a long log's first half goes to a forked process
+    rng = np.random.default_rng(7)
+    polys = np.array([shapely.box(x, y, x + rng.uniform(0.5, 3), y + rng.uniform(0.5, 3))
+                      for x, y in rng.uniform(0, 20, (60, 2))], dtype=object)
+    monkeypatch.setattr(union, "PROCESS_FROM", 10**9)
+    one = union.clipper_union(polys)
+    monkeypatch.setattr(union, "PROCESS_FROM", 10)
+    monkeypatch.setattr(union.os, "cpu_count", lambda: 2)
+    two = union.clipper_union(polys)
+    assert two.is_valid and shapely.symmetric_difference(one, two).area <= 1e-9 * one.area

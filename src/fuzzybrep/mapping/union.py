@@ -8,8 +8,9 @@ anything the map can resolve are dropped.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
 import shapely
@@ -73,19 +74,24 @@ def union(polygons, simplify: float = 0.0, engine: str = "clipper") -> shapely.G
     return polygonal(shapely.union_all(polys))
 
 
+#: scan polygons from which the Clipper2 tree is split between two processes: pyclipr holds
+#: the GIL while it unites, so threads ran one after the other; a forked process costs some
+#: 20-50 ms, worth it only for a longer log
+PROCESS_FROM = 1000
+
+
 def clipper_union(polys: np.ndarray, scale: float = CLIPPER_SCALE):
     """The union of valid polygons by Clipper2 (non-zero fill), as a valid (Multi)Polygon, or None
     where its rings cannot be put together (a hole inside no outer ring: never seen).
 
     The polygons are united two at a time, then the results two at a time, and so on (a pairwise
     tree: each union is of neighbours in scan order, which overlap, so the partial maps stay
-    small), as plain paths on every core, halves of the scans apart. The outer rings (counter-
-    clockwise) and holes (clockwise) of the result are then put together: each hole into the
-    smallest outer ring that contains it, found with an STRtree; a polygon GEOS finds invalid
-    (Clipper2 lets rings touch themselves at a vertex) is mended by make_valid.
+    small), as plain paths; on a machine with two cores or more the first half of the scans in a
+    forked process (``PROCESS_FROM``). The outer rings (counter-clockwise) and holes (clockwise)
+    of the result are then put together: each hole into the smallest outer ring that contains
+    it, found with an STRtree; a polygon GEOS finds invalid (Clipper2 lets rings touch
+    themselves at a vertex) is mended by make_valid.
     """
-    import pyclipr  # only the union needs it: not on every command's start-up
-
     parts, owner = shapely.get_parts(shapely.orient_polygons(polys), return_index=True)
     rings, ring_part = shapely.get_rings(parts, return_index=True)
     xy, which = shapely.get_coordinates(rings, return_index=True)
@@ -94,40 +100,51 @@ def clipper_union(polys: np.ndarray, scale: float = CLIPPER_SCALE):
     polygon_of_ring = owner[ring_part]
     starts = np.searchsorted(polygon_of_ring, np.arange(len(polys) + 1))
     groups = [paths[starts[k]:starts[k + 1]] for k in range(len(polys))]
-
-    def boxes(paths):
-        return np.array([(*p.min(axis=0), *p.max(axis=0)) for p in paths]).reshape(-1, 4)
-
-    def unite(a, b):
-        # only rings that reach where the other's rings are can change: the rest pass as they are
-        # (a ring of either beyond the other's box crosses nothing, and the union only grows, so
-        # a hole passed on still lies inside its outer ring, an island in its hole)
-        (pa, ba), (pb, bb) = a, b
-        lo, hi = np.maximum(ba[:, :2].min(0), bb[:, :2].min(0)), np.minimum(ba[:, 2:].max(0), bb[:, 2:].max(0))
-        ia = np.all(ba[:, :2] <= hi, 1) & np.all(ba[:, 2:] >= lo, 1)
-        ib = np.all(bb[:, :2] <= hi, 1) & np.all(bb[:, 2:] >= lo, 1)
-        c = pyclipr.Clipper()
-        c.scaleFactor = int(scale)
-        c.addPaths([p for p, i in zip(pa, ia) if i] + [p for p, i in zip(pb, ib) if i], pyclipr.Subject)
-        new = [np.asarray(p, dtype=np.float64) for p in c.execute(pyclipr.Union, pyclipr.FillRule.NonZero)]
-        keep_a, keep_b = np.flatnonzero(~ia), np.flatnonzero(~ib)
-        return ([*new, *(pa[k] for k in keep_a), *(pb[k] for k in keep_b)],
-                np.concatenate([boxes(new), ba[keep_a], bb[keep_b]]))
-
-    def tree(level):
-        level = [(g, boxes(g)) for g in level if g]
-        while len(level) > 1:
-            level = [unite(level[j], level[j + 1]) if j + 1 < len(level) else level[j] for j in range(0, len(level), 2)]
-        return level[0] if level else ([], np.zeros((0, 4)))
-
-    workers = min(os.cpu_count() or 1, 2)
-    if workers > 1 and len(groups) >= 64:
-        with ThreadPoolExecutor(workers) as ex:
-            a, b = ex.map(tree, (groups[: len(groups) // 2], groups[len(groups) // 2:]))
-        result = unite(a, b)[0] if len(a[0]) and len(b[0]) else (a[0] or b[0])
+    half = len(groups) // 2
+    if (os.cpu_count() or 1) > 1 and len(groups) >= PROCESS_FROM and "fork" in multiprocessing.get_all_start_methods():
+        # fork: the child has the paths already and imports nothing; only its result is sent back
+        with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as ex:
+            first = ex.submit(_tree, groups[:half], scale)
+            b = _tree(groups[half:], scale)
+            a = first.result()
+        result = _unite(a, b, scale)[0] if len(a[0]) and len(b[0]) else (a[0] or b[0])
     else:
-        result = tree(groups)[0]
+        result = _tree(groups, scale)[0]
     return _assemble(result)
+
+
+def _boxes(paths) -> np.ndarray:
+    return np.array([(*p.min(axis=0), *p.max(axis=0)) for p in paths]).reshape(-1, 4)
+
+
+def _unite(a, b, scale: float):
+    """Clipper2's union of two lists of plain rings with their boxes (``_tree``'s levels).
+
+    Only rings that reach where the other's rings are can change: the rest pass as they are (a
+    ring of either beyond the other's box crosses nothing, and the union only grows, so a hole
+    passed on still lies inside its outer ring, an island in its hole)."""
+    import pyclipr  # only the union needs it: not on every command's start-up
+
+    (pa, ba), (pb, bb) = a, b
+    lo, hi = np.maximum(ba[:, :2].min(0), bb[:, :2].min(0)), np.minimum(ba[:, 2:].max(0), bb[:, 2:].max(0))
+    ia = np.all(ba[:, :2] <= hi, 1) & np.all(ba[:, 2:] >= lo, 1)
+    ib = np.all(bb[:, :2] <= hi, 1) & np.all(bb[:, 2:] >= lo, 1)
+    c = pyclipr.Clipper()
+    c.scaleFactor = int(scale)
+    c.addPaths([p for p, i in zip(pa, ia) if i] + [p for p, i in zip(pb, ib) if i], pyclipr.Subject)
+    new = [np.asarray(p, dtype=np.float64) for p in c.execute(pyclipr.Union, pyclipr.FillRule.NonZero)]
+    keep_a, keep_b = np.flatnonzero(~ia), np.flatnonzero(~ib)
+    return ([*new, *(pa[k] for k in keep_a), *(pb[k] for k in keep_b)],
+            np.concatenate([_boxes(new), ba[keep_a], bb[keep_b]]))
+
+
+def _tree(groups, scale: float):
+    """The pairwise tree over groups of plain rings: (rings, their boxes) of the union."""
+    level = [(g, _boxes(g)) for g in groups if g]
+    while len(level) > 1:
+        level = [_unite(level[j], level[j + 1], scale) if j + 1 < len(level) else level[j]
+                 for j in range(0, len(level), 2)]
+    return level[0] if level else ([], np.zeros((0, 4)))
 
 
 def _assemble(paths: list[np.ndarray]):
