@@ -69,18 +69,17 @@ class Cells:
         t[0] = 0
         return t
 
-    def around(self, k: np.ndarray, offsets) -> tuple[np.ndarray, np.ndarray]:
-        """(neighbour, source) for every stored cell k and offset (dx, dy) that stays inside the
-        frame: the stored index of the neighbour, and the position in k it is a neighbour of."""
+    def around(self, k: np.ndarray, offsets):
+        """For each offset (dx, dy), in turn: (neighbour, source) for the stored cells k whose
+        neighbour at that offset lies inside the frame: the stored index of the neighbour, and
+        the position in k it is a neighbour of. One offset at a time, so that spreading over a
+        5 x 5 neighbourhood holds one offset's arrays, not 25."""
         ny, nx = self.shape
         cx, cy = self.xy(k)
-        out, src = [], []
         for dx, dy in offsets:
             jx, jy = cx + dx, cy + dy
             inside = np.flatnonzero((jx >= 0) & (jx < nx) & (jy >= 0) & (jy < ny))
-            out.append(self.index(jx[inside], jy[inside]))
-            src.append(inside)
-        return np.concatenate(out), np.concatenate(src)
+            yield self.index(jx[inside], jy[inside]), inside
 
     @classmethod
     def where_rays_pass(cls, shape, rays, origin: np.ndarray, cell: float) -> "Cells":

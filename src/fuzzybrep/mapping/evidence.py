@@ -90,7 +90,8 @@ class Evidence:
         k = max(1, int(np.ceil(radius / self.cell)))
         hit = np.flatnonzero(self.hits > 0)
         out = np.zeros(len(self.hits), bool)
-        out[self.cells.around(hit, [(dx, dy) for dx in range(-k, k + 1) for dy in range(-k, k + 1)])[0]] = True
+        for near, _ in self.cells.around(hit, [(dx, dy) for dx in range(-k, k + 1) for dy in range(-k, k + 1)]):
+            out[near] = True
         if self.cells.tiles is not None:
             out[: TILE * TILE] = False  # the scratch tile
         return out
@@ -390,13 +391,14 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
     # not evidence that the leg has gone; and the hits next to it. Spread from the hit cells,
     # which are few, to their 3 x 3 neighbourhoods
     hit = np.flatnonzero(hits)
-    near, src = cells.around(hit, [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
     last_near = np.zeros(size, np.int32)
-    np.maximum.at(last_near, near, last_hit[hit][src])
-    del last_hit
     hits_near = np.zeros(size, np.int32)
-    np.add.at(hits_near, near, hits[hit][src])
-    del near, src
+    last_of_hit, hits_of_hit = last_hit[hit], hits[hit]
+    del last_hit
+    for near, src in cells.around(hit, [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]):
+        # one offset at a time: the neighbours it gives are distinct, so plain indexing adds
+        last_near[near] = np.maximum(last_near[near], last_of_hit[src])
+        hits_near[near] += hits_of_hit[src]
 
     # sample every ray once, to its full length: the crossings use the part short of its end, and
     # clip (step 4) all of it. Only a cell that was hit can turn out occupied, so clip needs just
