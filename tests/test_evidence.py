@@ -429,3 +429,26 @@ def test_the_grid_stored_where_rays_pass_gives_the_evidence_of_the_whole_grid(mo
     e = np.concatenate(ends)[:, 2:]
     np.testing.assert_array_equal(tiled.hits_within(0.1)[tiled.cell_index(*e.T)], whole.hits_within(0.1)[whole.cell_index(*e.T)])
     assert not tiled.occupied[: evidence.TILE**2].any()  # the scratch tile
+
+
+@pytest.mark.parametrize("no_return_free", [0.0, 3.0])
+def test_the_bridge_looks_only_where_claiming_beams_pass_and_clips_them_the_same(no_return_free):
+    # a room with a pillar, scans from many places, every fifth beam without a return: the claims
+    # (the segments between neighbours, and no_return_free) are clipped by the bridge over the
+    # blocks they pass through exactly as by the bridge over every occupied cell
+    world = room(6, 4).difference(shapely.box(2.9, 1.9, 3.1, 2.1))
+    rng = np.random.default_rng(5)
+    scans = [scan_of(world, (x, y, h), n=181, t=float(k))
+             for k, (x, y, h) in enumerate(zip(rng.uniform(0.8, 5.2, 60), rng.uniform(0.8, 3.2, 60), rng.uniform(-3, 3, 60)))]
+    scans = [dataclasses.replace(s, ranges=np.where(np.arange(181) % 5 == 0, 8.0, s.ranges)) for s in scans]
+    beams = classify_all(scans, BeamConfig(no_return_free=no_return_free))
+    cfg = evidence.EvidenceConfig()
+    rays = rays_of(scans, beams)
+    ev = evidence.gather(rays, cfg)
+    assert ev.claims and ev.claimed is not None and len(ev.claimed) > 0
+    local = evidence.clip(rays, ev, cfg)
+    ev = evidence.gather(rays, cfg)
+    ev.claimed = None  # every occupied cell
+    everywhere = evidence.clip(rays, ev, cfg)
+    np.testing.assert_array_equal(local, everywhere)
+    assert (local < rays.length - 1e-9).any()
