@@ -74,7 +74,14 @@ def run(args: argparse.Namespace) -> int:
 def _write(args, fuzzy, cuts, alphas, name, step) -> None:
     """Each output export was asked for, a step of the progress bar each."""
     from ..errors import MapFileError
-    from ..formats.export import alpha_cut_features, crisp_features, membership_raster, metres_per_unit, write_geojson, write_ros
+    from ..formats.export import (
+        alpha_cut_features,
+        crisp_features,
+        membership_raster,
+        metres_per_unit,
+        write_geojson,
+        write_ros,
+    )
     from ..formats.files import write_atomic
     from ..formats.svg import svg_document
 

@@ -17,7 +17,6 @@ import shapely
 
 from ..geometry import polygonal
 
-
 #: what the union is computed with: Clipper2 (pyclipr), a pairwise tree of plain paths, or GEOS's
 #: cascaded union. On the build's own scan polygons Clipper2 is the faster with the same result
 #: (benchmarks/union.py: the symmetric difference under 1e-5 of the area); GEOS is kept for
