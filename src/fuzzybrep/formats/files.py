@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import sys
 import tempfile
 from pathlib import Path
 
@@ -126,6 +128,53 @@ def _json_integer(text: str) -> int | float:
     return float(text)  # float() parses any length: inf beyond the largest float
 
 
+class JSONLimitError(json.JSONDecodeError):
+    """JSON that parses, or would, but that no reader of ours can take: nested too deeply for
+    Python's parser, or a string holding a lone UTF-16 surrogate (``"\\ud800"``), which is no text
+    and fails every later write (UnicodeEncodeError in ``view`` and ``export``). A JSONDecodeError,
+    so that every reader's "not valid JSON (...)" names the file."""
+
+    def __init__(self, message: str, doc: str = "", pos: int = 0):
+        ValueError.__init__(self, message)
+        self.msg, self.doc, self.pos, self.lineno, self.colno = message, doc, pos, 1, pos + 1
+
+
+#: a \uD800-\uDFFF escape: a surrogate, lone unless its pair follows; only files holding one are
+#: searched for a lone one (the search walks every string)
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+_SURROGATE_ESCAPE_BYTES = re.compile(_SURROGATE_ESCAPE.pattern.encode())
+
+
+def _lone_surrogate(obj) -> str | None:
+    """The first string (key or value) in a parsed JSON document that holds a lone surrogate."""
+    stack = [obj]
+    while stack:
+        o = stack.pop()
+        if isinstance(o, dict):
+            stack.extend(o.keys())
+            stack.extend(o.values())
+        elif isinstance(o, list):
+            stack.extend(o)
+        elif isinstance(o, str):
+            try:
+                o.encode("utf-8")
+            except UnicodeEncodeError:
+                return o
+    return None
+
+
 def loads_json(raw: str | bytes):
-    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf."""
-    return json.loads(raw, parse_int=_json_integer)
+    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf;
+    JSONLimitError (a JSONDecodeError) for nesting deeper than Python's parser goes (about 1000
+    levels: a RecursionError before) and for a string with a lone surrogate."""
+    try:
+        obj = json.loads(raw, parse_int=_json_integer)
+    except RecursionError:
+        raise JSONLimitError(f"nested more than {sys.getrecursionlimit()} levels deep, "
+                             f"beyond what the JSON parser reads") from None
+    if (_SURROGATE_ESCAPE if isinstance(raw, str) else _SURROGATE_ESCAPE_BYTES).search(raw):
+        bad = _lone_surrogate(obj)
+        if bad is not None:
+            shown = bad.encode("utf-8", "backslashreplace").decode()
+            raise JSONLimitError(f"the string \"{shown[:60]}\" holds a lone UTF-16 surrogate, which is not text")
+    return obj
