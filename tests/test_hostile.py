@@ -76,3 +76,133 @@ def test_a_surrogate_pair_is_text(tmp_path, capsys):
     assert cli.main(["export", str(m), "--compact", str(tmp_path / "c.fbrc"), "--svg", str(tmp_path / "s.svg")]) == 0
     assert cli.main(["tables", str(tmp_path / "c.fbrc")]) == 0
     assert "unit \U0001f600" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------------- 3-6: the compact map
+
+
+def compact_header(unit: bytes = b"m", n_mf: bytes = b"\x00") -> bytes:
+    import numpy as np
+
+    from fuzzybrep.formats.compact import FM_FROM_KINDS, MAGIC, VERSION
+
+    return MAGIC + bytes([VERSION, len(unit)]) + unit + np.float64(0.001).tobytes() + bytes([FM_FROM_KINDS]) + n_mf
+
+
+def test_a_unit_or_fm_index_the_compact_map_cannot_hold(tmp_path, capsys):
+    # before: a bare ValueError traceback ("bytes must be in range(0, 256)", "FM indices above 255")
+    m = tmp_path / "m.json"
+    square(m, unit="u" * 300)
+    fails(capsys, ["export", m, "--compact", tmp_path / "c.fbrc", "--geojson", tmp_path / "g.geojson"],
+          "c.fbrc: cannot write a compact map: the unit is 300 bytes long; the compact map holds at most 255")
+    d = square(m)
+    mf = d["membership_functions"][0]
+    d["membership_functions"] = [dict(mf, index=k) for k in range(1, 257)]
+    d["regions"][0]["shell"]["fm"] = [1, 256, 2, 3]
+    m.write_text(json.dumps(d))
+    fails(capsys, ["export", m, "--compact", tmp_path / "c.fbrc", "--geojson", tmp_path / "g.geojson"],
+          "c.fbrc: cannot write a compact map: FM index 256 does not fit the compact map (at most 255)")
+    assert not list(tmp_path.glob("[cg].*"))  # checked before any output is written
+
+
+def test_coordinates_beyond_what_the_compact_map_holds_are_refused(tmp_path, capsys):
+    # before: 1e16 wrapped round int64 with a RuntimeWarning, and the square read back mirrored
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["regions"][0]["shell"].update(x=[0, 1e16, 1e16, 0], y=[0, 0, 1e16, 1e16])
+    m.write_text(json.dumps(d))
+    err = fails(capsys, ["export", m, "--compact", tmp_path / "c.fbrc"],
+                "c.fbrc: cannot write a compact map: principal, vertex 2: coordinate [1e+16, 0.0] is beyond ±9.0072e+12")
+    assert "Warning" not in err and not (tmp_path / "c.fbrc").exists()
+    d["regions"][0]["shell"].update(x=[0, 9e12, 9e12, 0], y=[0, 0, 9e12, 9e12])  # within: exact
+    m.write_text(json.dumps(d))
+    assert cli.main(["export", str(m), "--compact", str(tmp_path / "c.fbrc")]) == 0
+    from fuzzybrep.formats.compact import read_compact
+
+    assert read_compact(tmp_path / "c.fbrc")[0].principal.vertices.max() == 9e12
+
+
+def test_compact_steps_that_sum_beyond_the_limit_are_refused(tmp_path, capsys):
+    from fuzzybrep.formats.compact import encode_varints
+
+    # each step fits int64, their sum does not fit MAX_QUANTA (and 2**62 four times wraps to 0)
+    for step, vertex in ((2**52, 3), (2**62, 1)):
+        body = encode_varints([1, 0, 4]) + encode_varints([step, 0] * 4) + b"\x00"
+        c = tmp_path / "c.fbrc"
+        c.write_bytes(compact_header() + body)
+        fails(capsys, ["tables", c], f"c.fbrc: not a valid compact map: ring 1, vertex {vertex}: coordinate beyond "
+                                     f"±9007199254740992 quanta")
+
+
+def test_hole_counts_that_wrap_round_int64_are_refused(tmp_path, capsys):
+    # before: four regions of 2**62 holes each summed to 0 in int64, passed, and tables died in StopIteration
+    from fuzzybrep.formats.compact import encode_varints
+
+    c = tmp_path / "c.fbrc"
+    c.write_bytes(compact_header() + encode_varints([4] + [2**62] * 4) + b"\x00" * 60)
+    assert len(c.read_bytes()) < 150
+    fails(capsys, ["tables", c], "c.fbrc: not a valid compact map: truncated", "the hole counts (a count of 4611686018427387904")
+
+
+def test_a_varint_of_more_than_64_bits_is_refused(tmp_path, capsys):
+    c = tmp_path / "c.fbrc"
+    c.write_bytes(compact_header(n_mf=b"\xff" * 12 + b"\x01"))
+    fails(capsys, ["tables", c], "c.fbrc: not a valid compact map: the membership-function count: the varint at byte 16 holds more than 64 bits")
+
+
+def empty_functions(n: int) -> bytes:
+    from fuzzybrep.formats.compact import encode_varints
+
+    return compact_header(n_mf=encode_varints([n])) + (encode_varints([2]) + b"{}") * n  # then it ends: truncated
+
+
+def empty_rings(n: int) -> bytes:
+    from fuzzybrep.formats.compact import encode_varints
+
+    return compact_header() + encode_varints([n] + [0] * n) + b"\x00" * n  # n regions of no vertices, no holes
+
+
+@pytest.mark.parametrize("make", [empty_functions, empty_rings])
+def test_compact_decoding_is_linear(make, monkeypatch):
+    # before: every varint read scanned the rest of the file for its end (np.flatnonzero): 100,000
+    # empty functions took 16 s, 300,000 150 s, a file of 100,000 rings 122 s before its error.
+    # Counted here: the bytes searched for varint ends, ten times the file -> ten times the bytes
+    import numpy as np
+
+    from fuzzybrep.errors import MapFileError
+    from fuzzybrep.formats import compact
+
+    searched = []
+
+    class CountingNumPy:
+        def __getattr__(self, name):
+            return getattr(np, name)
+
+        @staticmethod
+        def flatnonzero(a):
+            searched.append(np.size(a))
+            return np.flatnonzero(a)
+
+    monkeypatch.setattr(compact, "np", CountingNumPy())
+
+    def bytes_searched(n: int) -> int:
+        searched.clear()
+        with pytest.raises(MapFileError):
+            compact.compact_from_bytes(make(n), "c.fbrc")
+        return sum(searched)
+
+    small, large = bytes_searched(2000), bytes_searched(20_000)
+    assert large < 12 * small, (small, large)
+
+
+def test_compact_decoding_time_is_linear():
+    from _linear import assert_linear
+
+    from fuzzybrep.errors import MapFileError
+    from fuzzybrep.formats.compact import compact_from_bytes
+
+    def run(data):
+        with pytest.raises(MapFileError):
+            compact_from_bytes(data, "c.fbrc")
+
+    assert_linear(empty_rings, run, 1000)

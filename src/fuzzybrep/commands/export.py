@@ -67,6 +67,16 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     fuzzy = load_map(args)
     alphas = sorted(set(args.alpha)) if args.alpha else list(DEFAULT_ALPHAS)
+    if args.compact:  # encoded first: a map the compact layout cannot hold leaves no other output written
+        from ..errors import FormatLimitError
+        from ..formats.compact import encode, stored_map
+
+        mfs = fuzzy.table.to_dicts()
+        try:
+            stored = stored_map(fuzzy.crisp, mfs)
+            compact = encode(stored, mfs)
+        except FormatLimitError as e:
+            raise MapFileError(args.compact, f"cannot write a compact map: {e}") from None
     cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
     if args.geojson:
         n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
@@ -78,11 +88,7 @@ def run(args: argparse.Namespace) -> int:
         n = write_atomic(args.svg, text.encode("utf-8"))
         print(f"{args.svg}: {n} bytes")
     if args.compact:
-        from ..formats.compact import stored_map, write_compact
-
-        mfs = fuzzy.table.to_dicts()
-        stored = stored_map(fuzzy.crisp, mfs)
-        n = write_compact(args.compact, stored, mfs)
+        n = write_atomic(args.compact, compact)
         snapped = f", {fuzzy.crisp.n_vertices} before snap rounding" if stored is not fuzzy.crisp else ""
         print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
     if args.ros:
