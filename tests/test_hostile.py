@@ -206,3 +206,21 @@ def test_compact_decoding_time_is_linear():
             compact_from_bytes(data, "c.fbrc")
 
     assert_linear(empty_rings, run, 1000)
+
+
+# ------------------------------------------------------------------------- 7: regions that share an edge
+
+
+def test_regions_sharing_an_edge_are_refused_and_meeting_at_a_point_is_a_map(tmp_path, capsys):
+    # before: read, the crisp geometry invalid, and alpha-cut --alpha 1 --method exact wrote invalid polygons
+    m = tmp_path / "m.json"
+    d = square(m)
+    piece = {"shell": {"x": [4, 8, 8, 4], "y": [1, 1, 3, 3], "kind": [0] * 4, "fm": [1] * 4}, "holes": []}
+    d["regions"].append(piece)
+    m.write_text(json.dumps(d))
+    fails(capsys, ["alpha-cut", m, "--alpha", "1", "--method", "exact", "--out", tmp_path / "a.geojson"],
+          "m.json: piece 2, vertex 1: shares an edge with principal near (4, 1)")
+    assert not (tmp_path / "a.geojson").exists()
+    piece["shell"].update(x=[4, 8, 8], y=[4, 4, 8], kind=[0] * 3, fm=[1] * 3)  # meets the square at a corner
+    m.write_text(json.dumps(d))
+    assert cli.main(["alpha-cut", str(m), "--alpha", "1", "--method", "exact", "--out", str(tmp_path / "a.geojson")]) == 0
