@@ -182,7 +182,7 @@ def mutate_json(rng: random.Random, data: bytes) -> bytes:
     """A value somewhere in a JSON document replaced by a hostile one (or deep nesting)."""
     try:
         doc = json.loads(data)
-    except ValueError:
+    except (ValueError, RecursionError):  # damaged or nested deep by an earlier mutation
         return mutate_bytes(rng, data)
     nodes = []  # (container, key)
     stack = [doc]
