@@ -44,13 +44,14 @@ def check_writable(path: str | os.PathLike) -> None:
         raise MapFileError(path, f"cannot write: folder {folder} is not writable")
 
 
-def check_outputs(*paths: str | os.PathLike | None, inputs: tuple = ()) -> None:
+def check_outputs(*paths: str | os.PathLike | None, inputs: tuple) -> None:
     """``check_writable`` for every output a command was given (None: not asked for), before it
     writes any: a command whose last output cannot be written must not leave the first ones.
 
     An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
     keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
-    one output by another. Linear in the number of paths (``tables --csv`` checks one per ring:
+    one output by another. ``inputs`` has no default, so that no caller forgets it (``tables
+    --csv DIR`` did, and replaced a map named DIR/vertices_principal.csv). Linear in the number of paths (``tables --csv`` checks one per ring:
     pairwise, 6000 tables took ten minutes)."""
     given = [p for p in paths if p is not None]
     for p in given:

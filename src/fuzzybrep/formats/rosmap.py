@@ -159,7 +159,7 @@ def write_ros_map(yaml_path: str | os.PathLike, image: np.ndarray, resolution: f
         data = pgm_bytes(image, comment)
     except ValueError as e:
         raise MapFileError(pgm_path, str(e)) from None
-    check_outputs(pgm_path, yaml_path)  # both before either: a YAML that cannot be written leaves no PGM
+    check_outputs(pgm_path, yaml_path, inputs=())  # both before either: a YAML that cannot be written leaves no PGM
     write_atomic(pgm_path, data)
     write_atomic(yaml_path, map_yaml(pgm_path.name, resolution, origin, negate, occupied_thresh, free_thresh,
                                      mode).encode())
