@@ -224,3 +224,86 @@ def test_regions_sharing_an_edge_are_refused_and_meeting_at_a_point_is_a_map(tmp
     piece["shell"].update(x=[4, 8, 8], y=[4, 4, 8], kind=[0] * 3, fm=[1] * 3)  # meets the square at a corner
     m.write_text(json.dumps(d))
     assert cli.main(["alpha-cut", str(m), "--alpha", "1", "--method", "exact", "--out", str(tmp_path / "a.geojson")]) == 0
+
+
+# ------------------------------------------------------------------------- 13: interrupted writes
+
+
+def test_a_replaced_file_keeps_its_mode(tmp_path):
+    # before: a completed write reset an existing file's 0600 to 0644
+    import os
+    import stat
+
+    from fuzzybrep.formats.files import FILE_MODE, write_atomic
+
+    m = tmp_path / "m.json"
+    m.write_text("old")
+    os.chmod(m, 0o600)
+    write_atomic(m, b"new")
+    assert m.read_bytes() == b"new" and stat.S_IMODE(m.stat().st_mode) == 0o600
+    write_atomic(tmp_path / "n.json", b"new")
+    assert stat.S_IMODE((tmp_path / "n.json").stat().st_mode) == FILE_MODE
+
+
+def test_what_a_killed_writer_left_is_removed_by_the_next_write(tmp_path, capsys):
+    # before: a kill while the temporary file existed left .NAME.<random>.tmp for ever
+    import signal
+    import subprocess
+    import sys
+
+    m = tmp_path / "m.json"
+    square(m)
+    writer = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    try:
+        killed = tmp_path / f".m.fbrc.{dead.pid}.k1ll3d.tmp"  # what a writer killed before its rename leaves
+        alive = tmp_path / f".m.fbrc.{writer.pid}.wr1t1n.tmp"  # another writer of the same name, still at work
+        other = tmp_path / ".m.fbrc.notours.tmp"
+        for p in (killed, alive, other):
+            p.write_bytes(b"partial")
+        assert cli.main(["export", str(m), "--compact", str(tmp_path / "m.fbrc")]) == 0
+        left = sorted(p.name for p in tmp_path.iterdir())
+        assert left == sorted([alive.name, other.name, "m.fbrc", "m.json"])
+    finally:
+        writer.send_signal(signal.SIGKILL)
+        writer.wait()
+
+
+def test_a_writer_killed_mid_write_leaves_the_old_file(tmp_path):
+    # a real kill: the child writes a large map and is killed while its temporary file exists
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    m = tmp_path / "m.json"
+    m.write_bytes(b"the old map")
+    code = ("import sys, time, os; from fuzzybrep.formats import files\n"
+            "real = os.fsync\n"
+            "def slow(fd):\n    print('writing', flush=True); time.sleep(60)\n"
+            "os.fsync = slow\n"
+            f"files.write_atomic({str(m)!r}, b'x' * 10**6)\n")
+    child = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    assert child.stdout.readline().strip() == "writing"
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    temps = list(tmp_path.glob(".m.json.*.tmp"))
+    assert m.read_bytes() == b"the old map" and len(temps) == 1 and f".{child.pid}." in temps[0].name
+    from fuzzybrep.formats.files import write_atomic
+
+    t0 = time.time()
+    while time.time() - t0 < 5 and not _gone(child.pid):
+        time.sleep(0.05)
+    write_atomic(m, b"the new map")
+    assert m.read_bytes() == b"the new map" and not list(tmp_path.glob(".m.json.*.tmp"))
+
+
+def _gone(pid: int) -> bool:
+    import os
+
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False

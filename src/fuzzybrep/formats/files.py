@@ -4,8 +4,10 @@ lost, JSON read the same way everywhere, and maps read from a file checked."""
 
 from __future__ import annotations
 
+import glob
 import json
 import os
+import stat
 import re
 import sys
 import tempfile
@@ -89,14 +91,26 @@ def _identities(path: str | os.PathLike) -> list:
 
 
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
-    """Write bytes so that the file is either the old one or the complete new one, never half."""
+    """Write bytes so that the file is either the old one or the complete new one, never half.
+
+    The bytes go to a temporary file beside it, ``.NAME.PID.XXXXXXXX.tmp``, which then replaces
+    it. A file being replaced keeps its permissions (a private 0600 map stayed private; it was
+    reset to 0644); a new one gets those of ``open(path, "w")``. A writer killed before the rename
+    leaves its temporary file behind: the next write of the same name removes every one whose
+    writer (PID) is no longer running on this machine (``_remove_stale``)."""
     path = Path(path)
     check_writable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        _remove_stale(path)
         try:
-            os.fchmod(fd, FILE_MODE)
+            st = os.stat(path)
+            mode = stat.S_IMODE(st.st_mode) if stat.S_ISREG(st.st_mode) else FILE_MODE
+        except OSError:
+            mode = FILE_MODE
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
+        try:
+            os.fchmod(fd, mode)
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
                 f.flush()
@@ -108,6 +122,27 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     except OSError as e:
         raise MapFileError(path, f"cannot write: {e.strerror or e}") from None
     return len(data)
+
+
+def _remove_stale(path: Path) -> None:
+    """Remove the temporary files of ``write_atomic(path)`` left by writers that were killed:
+    those whose PID no longer runs. A live writer's file is left alone, and so is any other
+    file (one without a PID in its name is not ours to judge)."""
+    prefix = f".{path.name}."
+    for tmp in path.parent.glob(glob.escape(prefix) + "*.tmp"):
+        pid = tmp.name[len(prefix):].split(".", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
+            tmp.unlink(missing_ok=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True  # someone else's, or not a PID we can ask about: keep its file
+    return True
 
 
 def check_map(crisp: BRepMap, path: str | os.PathLike) -> None:
