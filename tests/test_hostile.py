@@ -307,3 +307,72 @@ def _gone(pid: int) -> bool:
     except ProcessLookupError:
         return True
     return False
+
+
+# ------------------------------------------------------------------------- 14, 15: writers and hostile strings
+
+#: strings an attacker (or an unlucky user) puts in a map's unit or file name
+HOSTILE_STRINGS = ["a\x01b\x1bc", "<!--<script>", "]]><x>&amp;", "'\"", "a\nb: c #d", "\u2028\ufeff\uffff", "é ü"]
+
+
+def hostile_square(path, unit: str) -> None:
+    import shapely
+
+    from fuzzybrep.brep import BRepMap
+    from fuzzybrep.fuzzy.map import fuzzify
+
+    fuzzify(BRepMap.from_shapely(shapely.box(0, 0, 4, 4), unit), tme=0.1).save(path, poses=[[1, 1, 0, 0]])
+
+
+@pytest.mark.parametrize("hostile", HOSTILE_STRINGS)
+def test_svg_holds_any_unit_and_file_name_as_text(tmp_path, hostile):
+    # before: a control character in the unit made the SVG ill-formed XML
+    import xml.etree.ElementTree as ET
+
+    m = tmp_path / f"{hostile}.json"
+    hostile_square(m, hostile)
+    assert cli.main(["export", str(m), "--svg", str(tmp_path / "s.svg")]) == 0
+    root = ET.parse(tmp_path / "s.svg").getroot()
+    ns = "{http://www.w3.org/2000/svg}"
+    assert [e.tag for e in root] == [f"{ns}{t}" for t in ("title", "desc", "style", "rect", "g", "g", "g")]
+    from fuzzybrep.formats.escape import xml_text
+
+    shown = xml_text(hostile).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&")
+    assert root.find(f"{ns}title").text == f"{shown}.json"
+    assert f"unit {shown}, y up" in root.find(f"{ns}desc").text
+
+
+@pytest.mark.parametrize("hostile", HOSTILE_STRINGS)
+def test_ros_yaml_names_its_image_whatever_the_file_name(tmp_path, hostile):
+    # before: a map file name with a newline wrote an image: value over two lines (read_ros_map
+    # refused it, other YAML readers read something else) while export reported success; a unit
+    # beyond ASCII was a UnicodeEncodeError in the PGM comment
+    from fuzzybrep.formats.rosmap import read_ros_map
+
+    m = tmp_path / f"{hostile}.json"
+    hostile_square(m, hostile)
+    assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "0.5"]) == 0
+    yaml = tmp_path / "r" / f"{hostile}.yaml"
+    text = yaml.read_text(encoding="utf-8")
+    assert len(text.splitlines()) == 7 and text.splitlines()[0].startswith("image: ")  # one line per key
+    ros = read_ros_map(yaml)
+    assert ros.image_path == tmp_path / "r" / f"{hostile}.pgm" and ros.image.shape == (12, 12)
+    try:
+        import yaml as pyyaml
+    except ImportError:
+        return
+    assert pyyaml.safe_load(text)["image"] == f"{hostile}.pgm"
+
+
+def test_yaml_scalars_read_back_as_the_same_string():
+    from hypothesis import given
+    from hypothesis import strategies as st
+
+    from fuzzybrep.formats.escape import yaml_scalar
+    from fuzzybrep.formats.rosmap import parse_map_yaml
+
+    @given(st.text(st.characters(blacklist_categories=("Cs",)), min_size=1))
+    def round_trip(s):
+        assert parse_map_yaml(f"image: {yaml_scalar(s)}  # a comment\n")["image"] == s
+
+    round_trip()
