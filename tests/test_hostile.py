@@ -376,3 +376,81 @@ def test_yaml_scalars_read_back_as_the_same_string():
         assert parse_map_yaml(f"image: {yaml_scalar(s)}  # a comment\n")["image"] == s
 
     round_trip()
+
+
+# ------------------------------------------------------------------------- 8: one line, and nothing before it
+
+
+def cli_run(*argv) -> tuple[int, str]:
+    """The CLI in a fresh process, as a user runs it: (exit status, all it wrote to stderr,
+    warnings included, which pytest would otherwise catch)."""
+    import subprocess
+    import sys
+
+    p = subprocess.run([sys.executable, "-m", "fuzzybrep.cli", *map(str, argv)], capture_output=True, text=True,
+                       timeout=120)
+    return p.returncode, p.stderr
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["alpha-cut", "M", "--alpha", "2", "--out", "c.geojson"], "fuzzybrep alpha-cut: error: argument --alpha: α must lie in [0, 1], got 2"),
+    (["grid", "LOG", "--resolution", "0", "--out", "g"], "fuzzybrep grid: error: argument --resolution: 0 must be a positive number"),
+    (["plan", "M", "--start", "nan", "3", "--goal", "1", "1"], "fuzzybrep plan: error: argument --start: nan must be a finite number"),
+    (["export", "M", "--nosuch"], "fuzzybrep: error: unrecognized arguments: --nosuch"),
+    (["nosuch"], "fuzzybrep: error: argument COMMAND: invalid choice: 'nosuch'"),
+    ([], "fuzzybrep: error: the following arguments are required: COMMAND"),
+])
+def test_usage_errors_are_one_line(capsys, argv, words):
+    # before: 4 to 14 lines of usage before the message
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and err.count("\n") == 1 and words in err and "--help)" in err, err
+
+
+def test_help_still_shows_the_usage(capsys):
+    with pytest.raises(SystemExit) as e:
+        cli.main(["export", "--help"])
+    out = capsys.readouterr().out
+    assert e.value.code == 0 and out.startswith("usage: fuzzybrep export") and "--compact OUT.fbrc" in out
+
+
+def test_no_warning_before_the_error(tmp_path):
+    # before: NumPy's and GEOS's RuntimeWarnings (overflow in is_simple, in the sweep's area, in the
+    # evidence grid's and the occupancy grid's size) printed before the one-line error; a ring
+    # reaching 1e308 that was simple passed the map check altogether
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["regions"][0]["shell"].update(x=[0, 1e308, 1e308, 0], y=[0, 0, 1, 1])
+    m.write_text(json.dumps(d))
+    log = tmp_path / "w.log"
+    log.write_text("".join(f"FLASER 10 {' '.join(['1.5'] * 9)} 9.0 {x} 0 0 {x} 0 0 {k} host {k}\n"
+                           for k, x in enumerate((0.0, -1e308))))
+    for argv, words in ((["tables", m], "m.json: principal, vertex 2: coordinate [1e+308, 0.0] is beyond ±1e+60"),
+                        (["build", log, "--out", tmp_path / "b.json", "--quiet"], "w.log:2: the scan's position (-1e+308, 0)"),
+                        (["grid", log, "--out", tmp_path / "g", "--quiet"], "the scan's position (-1e+308, 0) in w.log:2")):
+        status, err = cli_run(*argv)
+        assert status == 2 and err.count("\n") == 1 and words in err, err
+
+
+def test_a_membership_function_numbered_beyond_any_table(tmp_path, capsys):
+    # before (found by the fuzzer): a Table 4.2 index of 2**40 made a lookup table of 2**40
+    # entries: "array is too big" traceback
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["membership_functions"].append(dict(d["membership_functions"][0], index=2**40))
+    m.write_text(json.dumps(d))
+    assert cli.main(["view", str(m), "--html", str(tmp_path / "v.html")]) == 0
+    assert cli.main(["tables", str(m)]) == 0
+
+
+# ------------------------------------------------------------------------- 9: the right scan is blamed
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_the_corrupt_scan_is_named_when_the_median_lies_halfway(tmp_path, capsys, n):
+    # before: with two scans, scan 2's x = -1e308 put the median halfway, and line 1 was named
+    log = tmp_path / "w.log"
+    log.write_text("".join(f"FLASER 10 {' '.join(['1.5'] * 9)} 9.0 {x} 0 0 {x} 0 0 {k} host {k}\n"
+                           for k, x in enumerate([0.1 * k if k != 1 else -1e308 for k in range(n)])))
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], "w.log:2: the scan's position (-1e+308, 0)")

@@ -295,10 +295,12 @@ def validate_map(crisp: BRepMap) -> None:
         ring_of = np.repeat(np.arange(len(rings)), sizes)
         nxt = np.arange(len(V)) + 1
         nxt[start + sizes - 1] = start
-        finite = np.isfinite(V).all(axis=1)
+        with np.errstate(invalid="ignore"):
+            finite = (np.abs(V) <= LARGEST).all(axis=1)  # NaN and ±inf too
         dup = np.all(V == V[nxt], axis=1)
-        # a ring with a non-finite vertex is suspect already: 0 in its place keeps NumPy from
-        # warning (a second line before the error), and an area that overflows is not 0
+        # a ring with a vertex beyond ±LARGEST (or not finite) is suspect already: 0 in its place
+        # keeps NumPy and GEOS from warning (lines before the error), and validate_ring names it;
+        # judged only by area and simplicity, a ring reaching 1e308 passed unchecked
         Vf = np.where(finite[:, None], V, 0.0)
         x, y = Vf[:, 0], Vf[:, 1]
         with np.errstate(over="ignore", invalid="ignore"):
