@@ -454,3 +454,159 @@ def test_the_corrupt_scan_is_named_when_the_median_lies_halfway(tmp_path, capsys
     log.write_text("".join(f"FLASER 10 {' '.join(['1.5'] * 9)} 9.0 {x} 0 0 {x} 0 0 {k} host {k}\n"
                            for k, x in enumerate([0.1 * k if k != 1 else -1e308 for k in range(n)])))
     fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], "w.log:2: the scan's position (-1e+308, 0)")
+
+
+# ------------------------------------------------------------------------- 10: gzip bombs, long lines
+
+
+def gzip_bomb(path, block: bytes, size: int) -> None:
+    """``size`` bytes of ``block`` repeated, gzipped (written a MiB at a time: fast, and tiny)."""
+    import zlib
+
+    c = zlib.compressobj(9, zlib.DEFLATED, 31)
+    chunk = block * (2**20 // len(block))
+    with open(path, "wb") as f:
+        for _ in range(size // len(chunk)):
+            f.write(c.compress(chunk))
+        f.write(c.flush())
+
+
+@pytest.mark.parametrize("name, block, words", [
+    # before: MemoryError at 4.3 GB after 29 s (a CARMEN line of NUL bytes), a gzipped CSV
+    # decompressed whole (MemoryError), 4 GiB of blank lines still running after 300 s
+    ("nul.log.gz", b"\0", "nul.log.gz, line 1: line is longer than 8388608 bytes, the most a line of a log may be"),
+    ("blank.log.gz", b"\n", "blank.log.gz: the gzip stream expands more than 100 times"),
+    ("blank.csv.gz", b"\n", "blank.csv.gz: the gzip stream expands more than 100 times"),
+    ("nul.csv.gz", b"\0", "nul.csv.gz, line 1: line is longer than 8388608 bytes"),
+    ("rows.csv.gz", b"0,0,0,0,0,0,1\n", "rows.csv.gz: the gzip stream expands more than 100 times"),
+])
+def test_gzip_bombs_are_refused_naming_the_limit(tmp_path, capsys, name, block, words):
+    bomb = tmp_path / name
+    if name.startswith("rows"):
+        bomb.write_bytes(b"")
+        gzip_bomb(bomb, block, 64 * 2**20)
+        body = bomb.read_bytes()
+        import gzip
+        bomb.write_bytes(gzip.compress(b"scan,time,x,y,theta,bearing,range\n") + body)  # gzip members concatenate
+    else:
+        gzip_bomb(bomb, block, 64 * 2**20)
+    assert bomb.stat().st_size < 2**20
+    fails(capsys, ["build", bomb, "--out", tmp_path / "m.json", "--quiet"], words)
+
+
+def test_a_plain_log_with_a_line_beyond_the_limit(tmp_path, capsys):
+    log = tmp_path / "long.log"
+    log.write_bytes(b"FLASER 1 1.0 0 0 0 0 0 0 0 h 0\n" + b"FLASER " + b"1 " * (2**22 + 1) + b"\n")
+    fails(capsys, ["build", log, "--out", tmp_path / "m.json", "--quiet"], "long.log, line 2: line is longer than 8388608")
+
+
+def test_long_lines_of_a_real_sensor_are_read(tmp_path):
+    # a spinning lidar's scan of 100,000 beams: 400 kB a line, far below the limit
+    from fuzzybrep.scans.carmen import read_carmen
+
+    n = 100_000
+    ranges = " ".join(["2.5"] * n)
+    log = tmp_path / "dense.log"
+    log.write_text("".join(f"FLASER {n} {ranges} {k} 0 0 {k} 0 0 {k} host {k}\n" for k in range(3)))
+    assert len(log.read_bytes()) > 3 * 400_000
+    scans = read_carmen(log)
+    assert len(scans) == 3 and all(len(s.ranges) == n for s in scans)
+
+
+# ------------------------------------------------------------------------- reading any input is linear
+
+
+def _room_scans(n: int):
+    from test_rosbag import room_scans
+
+    scans = room_scans(8)
+    return [scans[k % 8].__class__(scans[k % 8].ranges, scans[k % 8].bearings, scans[k % 8].pose,
+                                   float(k), scans[k % 8].max_range) for k in range(n)]
+
+
+def _carmen(tmp_path, n):
+    p = tmp_path / f"scans{n}.log"
+    p.write_text("".join(f"FLASER {len(s.ranges)} {' '.join(f'{r:.3f}' for r in s.ranges)} {s.pose[0]} {s.pose[1]} "
+                         f"{s.pose[2]} 0 0 0 {s.timestamp} host {s.timestamp}\nODOM 0 0 0 0 0 0 {s.timestamp} h 0\n\n"
+                         for s in _room_scans(n)))
+    return p
+
+
+def _csv(tmp_path, n):
+    from fuzzybrep.scans.csvscans import write_csv
+
+    p = tmp_path / f"scans{n}.csv"
+    write_csv(p, _room_scans(n))
+    return p
+
+
+def _bag(tmp_path, n):
+    from test_rosbag import bag_of
+
+    return bag_of(tmp_path / f"scans{n}.bag", _room_scans(n))
+
+
+def _ros2(tmp_path, n):
+    from test_rosbag import bag_of
+
+    return bag_of(tmp_path / f"scans{n}", _room_scans(n), ros1=False, storage="mcap")
+
+
+def _ring(n):
+    import numpy as np
+
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.column_stack((10 * np.cos(a), 10 * np.sin(a)))
+
+
+def _map_json(tmp_path, n):
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.fuzzy.map import fuzzify
+
+    p = tmp_path / f"map{n}.json"
+    fuzzify(BRepMap((Region(Ring(_ring(n))),)), tme=0.01).save(p)
+    return p
+
+
+def _compact(tmp_path, n):
+    from fuzzybrep.brep import BRepMap, Region, Ring
+    from fuzzybrep.formats.compact import write_compact
+
+    p = tmp_path / f"map{n}.fbrc"
+    write_compact(p, BRepMap((Region(Ring(_ring(n))),)), [])
+    return p
+
+
+def _geojson(tmp_path, n):
+    ring = _ring(n).tolist()
+    p = tmp_path / f"plan{n}.geojson"
+    p.write_text(json.dumps({"type": "Polygon", "coordinates": [ring + ring[:1]]}))
+    return p
+
+
+def _read_scans(p):
+    from fuzzybrep.scans.read import read_scans
+
+    assert read_scans(p)
+
+
+def _read_map(p):
+    from fuzzybrep.formats.mapfile import read_map
+
+    read_map(p)
+
+
+def _read_geojson(p):
+    from fuzzybrep.formats.geojson import read_geojson
+
+    read_geojson(p)
+
+
+@pytest.mark.parametrize("make, read, n", [(_carmen, _read_scans, 40), (_csv, _read_scans, 20), (_bag, _read_scans, 30),
+                                           (_ros2, _read_scans, 30), (_map_json, _read_map, 2000),
+                                           (_compact, _read_map, 2000), (_geojson, _read_geojson, 2000)],
+                         ids=["carmen", "csv", "ros1", "ros2", "map-json", "compact", "geojson"])
+def test_reading_is_linear_in_the_input(tmp_path, make, read, n):
+    from _linear import assert_linear
+
+    assert_linear(lambda k: make(tmp_path, k), read, n)
