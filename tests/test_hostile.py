@@ -610,3 +610,26 @@ def test_reading_is_linear_in_the_input(tmp_path, make, read, n):
     from _linear import assert_linear
 
     assert_linear(lambda k: make(tmp_path, k), read, n)
+
+
+# ------------------------------------------------------------------------- 11: huge GeoJSON
+
+
+def test_geojson_too_large_is_refused_before_it_is_parsed(tmp_path, capsys, monkeypatch):
+    # before: a ring of 10**7 vertices (289 MB) peaked at 6.1 GB and ended in GEOSException: std::bad_alloc
+    from fuzzybrep.formats import geojson
+    from fuzzybrep.sim import world
+
+    parsed = []
+    for module in (geojson, world):  # refused before it is parsed
+        monkeypatch.setattr(module, "loads_json", lambda raw, real=module.loads_json: parsed.append(1) or real(raw))
+    g = tmp_path / "huge.geojson"
+    g.write_bytes(b'{"type": "Polygon", "coordinates": [[' + b"[0.5,0.5]," * 5_001_000 + b"[0.5,0.5]]]}")
+    fails(capsys, ["fuzzify", g, "--tme", "0.1", "--out", tmp_path / "f.json"],
+          "huge.geojson: the file holds about 5001003 positions; GeoJSON is read with up to 5000000")
+    fails(capsys, ["demo", "--world", g, "--out", tmp_path / "d"], "huge.geojson: the file holds about 5001003 positions")
+    with open(g, "r+b") as f:  # sparse: 600 MiB that take no disk
+        f.truncate(600 * 2**20)
+    fails(capsys, ["fuzzify", g, "--tme", "0.1", "--out", tmp_path / "f.json"],
+          "huge.geojson: the file is 600 MiB; GeoJSON is read up to 512 MiB")
+    assert not parsed and not (tmp_path / "f.json").exists()
