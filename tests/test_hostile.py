@@ -633,3 +633,100 @@ def test_geojson_too_large_is_refused_before_it_is_parsed(tmp_path, capsys, monk
     fails(capsys, ["fuzzify", g, "--tme", "0.1", "--out", tmp_path / "f.json"],
           "huge.geojson: the file is 600 MiB; GeoJSON is read up to 512 MiB")
     assert not parsed and not (tmp_path / "f.json").exists()
+
+
+# ------------------------------------------------------------------------- 16: ROS bags
+# (the fuzzer's "bag-messages" cases draw these at random; here each once, by name)
+
+
+def _bag_with(tmp_path, name, each, ros1=True, storage="sqlite3"):
+    """A bag of six room scans at odometry poses, ``each(bag, k, scan)`` writing scan k's messages."""
+    from test_rosbag import Bag, room_scans
+
+    b = Bag(tmp_path / name, ros1=ros1, storage=storage)
+    for k, s in enumerate(room_scans(6)):
+        each(b, k, s)
+    b.close()
+    return tmp_path / name
+
+
+@pytest.mark.parametrize("ros1, storage, cut, words", [
+    (True, "", 0.5, "cut.bag: cannot read as a ROS bag: AnyReaderError: Bag index looks damaged"),
+    (False, "sqlite3", 0.5, "cut: cannot read as a ROS bag: AnyReaderError: Cannot open database"),
+    (False, "mcap", 0.5, "cut: cannot read as a ROS bag: AnyReaderError:"),
+])
+def test_a_truncated_bag(tmp_path, capsys, ros1, storage, cut, words):
+    from test_rosbag import bag_of, room_scans
+
+    bag = bag_of(tmp_path / ("cut.bag" if ros1 else "cut"), room_scans(6), ros1=ros1, storage=storage or "sqlite3")
+    f = bag if ros1 else next(p for p in bag.iterdir() if p.suffix in (".db3", ".mcap"))
+    f.write_bytes(f.read_bytes()[: int(f.stat().st_size * cut)])
+    fails(capsys, ["build", bag, "--out", tmp_path / "m.json", "--quiet"], words)
+
+
+def test_bags_with_messages_wrong_in_kind_or_content(tmp_path, capsys):
+    import numpy as np
+
+    from test_rosbag import LASER
+
+    def wrong_bytes(b, k, s):
+        b.odom(s.timestamp, *s.pose)
+        b.raw(s.timestamp, "/scan", LASER, b"\x01\x02\x03")
+
+    def odometry_on_scan(b, k, s):
+        b.odom(s.timestamp, *s.pose)
+        b.odom(s.timestamp, *s.pose, topic="/scan")
+
+    def all_nan(b, k, s):
+        b.odom(s.timestamp, *s.pose)
+        b.scan(s.timestamp, np.full(181, np.nan))
+
+    def empty(b, k, s):
+        b.odom(s.timestamp, *s.pose)
+        b.scan(s.timestamp, s.ranges if k else [])
+
+    def tf_loop(b, k, s):  # odom -> laser -> odom: each frame one parent, and no root
+        b.tf(s.timestamp, "odom", "laser", s.pose[0], s.pose[1], s.pose[2])
+        b.tf(s.timestamp, "laser", "odom", 0, 0, 0)
+        b.scan(s.timestamp, s.ranges)
+
+    out = tmp_path / "m.json"
+    for each, words in (
+            (wrong_bytes, "wrong_bytes.bag, topic /scan, message 0: cannot decode sensor_msgs/msg/LaserScan"),
+            (odometry_on_scan, "odometry_on_scan.bag: no sensor_msgs/LaserScan topic in this bag"),
+            (all_nan, "all_nan.bag: no beam has a return"),
+            (empty, "empty.bag, topic /scan, message 0, field ranges: no ranges"),
+            # before: "cannot read as a ROS bag: ValueError: tf has a loop"
+            (tf_loop, "tf_loop.bag: tf has a loop through frame 'laser': a frame is its own ancestor")):
+        bag = _bag_with(tmp_path, f"{each.__name__}.bag", each)
+        fails(capsys, ["build", bag, "--out", out, "--quiet"], words)
+    assert cli.main(["build", str(tmp_path / "empty.bag"), "--out", str(out), "--quiet", "--skip-bad"]) == 0
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_a_bag_of_many_tiny_messages_reads_in_linear_time(tmp_path):
+    # a bag of 10**6 tiny messages (empty scans between real ones) is read in time linear in its
+    # size: here 10**3 and 10**4 (the 10**6 run is in the issue's report)
+    from _linear import assert_linear
+
+    from fuzzybrep.scans.read import read_scans
+    from fuzzybrep.scans.report import ReadReport
+    from test_rosbag import Bag, room_scans
+
+    ranges = room_scans(1)[0].ranges
+
+    def make(n):
+        b = Bag(tmp_path / f"tiny{n}.bag")
+        for k in range(n):
+            t = 1 + k * 1e-3
+            if k % 100 == 0:
+                b.odom(t, 0.01 * k, 0.0, 0.0)
+            b.scan(t, ranges if k % 100 == 0 else [])
+        b.close()
+        return tmp_path / f"tiny{n}.bag"
+
+    def run(bag):
+        report = ReadReport()
+        assert read_scans(bag, skip_bad=True, report=report) and report.skipped
+
+    assert_linear(make, run, 1000)
