@@ -67,7 +67,7 @@ def first_bytes(path: Path, size: int = 65536) -> bytes:
 #: lidar's scan tens of kB; a line of NUL bytes in a gzip bomb grew until MemoryError at 4.3 GB
 MAX_LINE_BYTES = 8 * 2**20
 #: a gzip log may expand at most this many times (checked once past GZIP_RATIO_FROM bytes): the
-#: shared logs expand 3-5 times, a gzip bomb about 1000 (4 MB to 4 GiB)
+#: shared logs expand 3 to 6 times, a gzip bomb about 1000 (4 MB to 4 GiB)
 MAX_GZIP_RATIO = 100
 GZIP_RATIO_FROM = 16 * 2**20
 _CHUNK = 2**20
@@ -108,7 +108,7 @@ def matching_lines(path: str | Path, pattern: re.Pattern[bytes]) -> Iterator[tup
             if gz and out > GZIP_RATIO_FROM and out > MAX_GZIP_RATIO * raw.tell():
                 raise ScanFormatError(path, None, f"the gzip stream expands more than {MAX_GZIP_RATIO} times "
                                                   f"({out // 2**20} MiB from {raw.tell() / 2**20:.1f} MiB): refused "
-                                                  f"as a gzip bomb (logs expand 3-10 times)")
+                                                  f"as a gzip bomb (logs expand a few times)")
             data = carry + chunk
             if first:  # a spreadsheet's "CSV UTF-8" starts with a byte-order mark
                 data, first = data.removeprefix(b"\xef\xbb\xbf"), False
