@@ -435,13 +435,18 @@ def test_no_warning_before_the_error(tmp_path):
 
 def test_a_membership_function_numbered_beyond_any_table(tmp_path, capsys):
     # before (found by the fuzzer): a Table 4.2 index of 2**40 made a lookup table of 2**40
-    # entries: "array is too big" traceback
+    # entries, an "array is too big" traceback; now the largest index an FM can hold (2**31 - 1)
+    # works, looked up by sorted index, and a larger one is refused as no FM could name it
     m = tmp_path / "m.json"
     d = square(m)
-    d["membership_functions"].append(dict(d["membership_functions"][0], index=2**40))
+    mf = d["membership_functions"][0]
+    d["membership_functions"].append(dict(mf, index=2**31 - 1))
     m.write_text(json.dumps(d))
     assert cli.main(["view", str(m), "--html", str(tmp_path / "v.html")]) == 0
     assert cli.main(["tables", str(m)]) == 0
+    d["membership_functions"][1]["index"] = 2**40
+    m.write_text(json.dumps(d))
+    fails(capsys, ["view", m, "--html", tmp_path / "w.html"], "m.json", "membership function 2: index 1099511627776 is not")
 
 
 # ------------------------------------------------------------------------- 9: the right scan is blamed
@@ -730,3 +735,14 @@ def test_a_bag_of_many_tiny_messages_reads_in_linear_time(tmp_path):
         assert read_scans(bag, skip_bad=True, report=report) and report.skipped
 
     assert_linear(make, run, 1000)
+
+
+@pytest.mark.parametrize("index", [{"a": 1}, [1], "1", 1.5, True, 0, 2**31])
+def test_a_membership_function_index_that_is_no_whole_number(tmp_path, capsys, index):
+    # found by the fuzzer: an index that was a JSON object ended in "TypeError: unhashable type: 'dict'"
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["membership_functions"][0]["index"] = index
+    m.write_text(json.dumps(d))
+    fails(capsys, ["view", m, "--html", tmp_path / "v.html"], "m.json", "membership function 1: index",
+          "is not a whole number from 1 up")

@@ -508,6 +508,11 @@ class MembershipTable:
         table = {}
         for pos, d in enumerate(items):
             index = d.get("index", pos + 1) if isinstance(d, Mapping) else pos + 1
+            if isinstance(index, bool) or not isinstance(index, int) or not 1 <= index < 2**31:
+                # as FM indices are (mapfile._whole): a dict or a list here was a TypeError traceback
+                shown = repr(index) if len(repr(index)) <= 40 else f"{repr(index)[:40]}..."
+                raise MembershipFunctionError(f"membership function {pos + 1}: index {shown} is not a whole number "
+                                              f"from 1 up")
             try:
                 f = from_dict(d)
             except MembershipFunctionError as e:
