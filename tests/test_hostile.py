@@ -746,3 +746,24 @@ def test_a_membership_function_index_that_is_no_whole_number(tmp_path, capsys, i
     m.write_text(json.dumps(d))
     fails(capsys, ["view", m, "--html", tmp_path / "v.html"], "m.json", "membership function 1: index",
           "is not a whole number from 1 up")
+
+
+def test_export_makes_every_output_before_it_writes_any(tmp_path, capsys):
+    # found by the fuzzer: export --svg --ros wrote the SVG, then found the ROS grid too large
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["regions"][0]["shell"].update(x=[0, 2e9, 2e9, 0])
+    m.write_text(json.dumps(d))
+    fails(capsys, ["export", m, "--svg", tmp_path / "s.svg", "--geojson", tmp_path / "g.geojson", "--ros", tmp_path / "r"],
+          "m.yaml: a grid of", "is too large (limit 40000000 cells)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+
+
+def test_a_tme_near_the_largest_float_warns_of_nothing(tmp_path):
+    # found by the fuzzer: TME = 1e308 overflowed (a RuntimeWarning) in the criteria check before the error
+    m = tmp_path / "m.json"
+    d = square(m)
+    d["membership_functions"][0]["tme"] = 1e308
+    m.write_text(json.dumps(d))
+    status, err = cli_run("memory", m, "--cell", "0.5")
+    assert status == 2 and err.count("\n") == 1 and "support ±1e+308 m reaches beyond" in err, err

@@ -77,21 +77,7 @@ def run(args: argparse.Namespace) -> int:
             compact = encode(stored, mfs)
         except FormatLimitError as e:
             raise MapFileError(args.compact, f"cannot write a compact map: {e}") from None
-    cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
-    if args.geojson:
-        n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
-        print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
-              f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
-    if args.svg:
-        support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
-        text = svg_document(fuzzy, cuts, support, title=Path(args.map).name)
-        n = write_atomic(args.svg, text.encode("utf-8"))
-        print(f"{args.svg}: {n} bytes")
-    if args.compact:
-        n = write_atomic(args.compact, compact)
-        snapped = f", {fuzzy.crisp.n_vertices} before snap rounding" if stored is not fuzzy.crisp else ""
-        print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
-    if args.ros:
+    if args.ros:  # made before any output is written too: a grid too large leaves no SVG behind (found by the fuzzer)
         # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
         scale = metres_per_unit(fuzzy.unit)
         ros_unit = "m" if scale else fuzzy.unit
@@ -99,6 +85,22 @@ def run(args: argparse.Namespace) -> int:
             raster = membership_raster(fuzzy, args.resolution / (scale or 1.0), args.ros_method)
         except ValueError as e:
             raise MapFileError(Path(args.ros) / f"{name}.yaml", str(e)) from None
+    cuts = [fuzzy.alpha_cut(a, args.method) for a in alphas] if (args.geojson or args.svg) else []
+    if args.svg:
+        support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
+        svg = svg_document(fuzzy, cuts, support, title=Path(args.map).name).encode("utf-8")
+    if args.geojson:
+        n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
+        print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
+              f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
+    if args.svg:
+        n = write_atomic(args.svg, svg)
+        print(f"{args.svg}: {n} bytes")
+    if args.compact:
+        n = write_atomic(args.compact, compact)
+        snapped = f", {fuzzy.crisp.n_vertices} before snap rounding" if stored is not fuzzy.crisp else ""
+        print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
+    if args.ros:
         yaml_path, pgm_path = write_ros(args.ros, name, raster)
         h, w = raster.shape
         crisp_area = fuzzy.crisp_geometry.area

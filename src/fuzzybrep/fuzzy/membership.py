@@ -128,12 +128,14 @@ class MembershipFunction:
         if not math.isclose(mu0, 1.0, abs_tol=1e-12):
             raise MembershipFunctionError(f"{name}: criterion 3 of thesis 4.1.1 fails: μ(r) = {mu0:g}, must be 1")
         far = np.array([1.0, 1.0 + 1e-9, 1.5, 10.0, 1e6])
-        out = self.mu(far * self.tme_out)
+        with np.errstate(over="ignore"):  # a TME near the largest float: far points at ±inf, still beyond
+            far_out, far_in = far * self.tme_out, -far * self.tme_in
+        out = self.mu(far_out)
         if np.any(out != 0):
             raise MembershipFunctionError(
                 f"{name}: criterion 1 of thesis 4.1.1 fails: μ(r + TME) = {out[0]:.6g} with TME = {self.tme_out:g}, "
                 f"must be 0 for x ≥ r + TME{self._never_zero_hint()}")
-        inn = self.mu(-far * self.tme_in)
+        inn = self.mu(far_in)
         if np.any(inn != 0):
             raise MembershipFunctionError(
                 f"{name}: criterion 2 of thesis 4.1.1 fails: μ(r − TME) = {inn[0]:.6g} with TME = {self.tme_in:g}, "
