@@ -197,6 +197,8 @@ def mutate_json(rng: random.Random, data: bytes) -> bytes:
         return mutate_bytes(rng, data)
     for _ in range(rng.choice((1, 1, 2, 5))):
         o, k = rng.choice(nodes)
+        if isinstance(o, list) and k >= len(o):  # an earlier mutation shortened the list
+            continue
         r = rng.random()
         if r < 0.1:
             o[k] = "__DEEP__" if rng.random() < 0.5 else [o[k]] * 3
@@ -469,7 +471,10 @@ def main(argv: list[str] | None = None) -> int:
     for k in range(a.cases):
         seed = a.first + k
         fmt = fmts[seed % len(fmts)]
-        res = case(fmt, seed, a.time_limit)
+        try:
+            res = case(fmt, seed, a.time_limit)
+        except Exception as e:  # noqa: BLE001 - the fuzzer's own fault in making an input: say so, go on
+            res = Outcome(fmt, seed, [], problems=[f"fuzzer error making the input: {type(e).__name__}: {e}"])
         if res.problems:
             failed += 1
             print(json.dumps({"format": fmt, "seed": seed, "argv": [Path(x).name if "/" in x else x for x in res.argv],
