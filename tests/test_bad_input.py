@@ -587,6 +587,14 @@ def test_no_command_writes_over_its_own_input(tmp_path, capsys, monkeypatch):
     fails(capsys, ["alpha-cut", m, "--alpha", "0", "--out", tmp_path / "sub" / ".." / "m.json"], "it is the input")
     fails(capsys, ["view", m, "--html", m], "it is the input")
     fails(capsys, ["export", m, "--geojson", tmp_path / "x", "--svg", "x"], "x: cannot write: it is given for two outputs")
+    # before: tables --csv replaced a map that sat in DIR under one of its table names
+    t = tmp_path / "t"
+    t.mkdir()
+    (t / "vertices_principal.csv").write_bytes(m.read_bytes())
+    fails(capsys, ["tables", t / "vertices_principal.csv", "--csv", t], "vertices_principal.csv: cannot write: it is the input")
+    assert (t / "vertices_principal.csv").read_bytes() == m.read_bytes() and len(list(t.iterdir())) == 1
+    (t / "vertices_principal.csv").unlink()
+    t.rmdir()
     assert {p.name: p.read_bytes() for p in (log, m)} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.log", "m.json"]
 

@@ -21,9 +21,9 @@ def test_an_output_that_is_an_input_or_given_twice_is_refused(tmp_path, monkeypa
         with pytest.raises(MapFileError, match="it is the input"):
             files.check_outputs(same, inputs=(log,))
     with pytest.raises(MapFileError, match="given for two outputs"):
-        files.check_outputs(tmp_path / "a.json", "a.json")
+        files.check_outputs(tmp_path / "a.json", "a.json", inputs=())
     with pytest.raises(MapFileError, match="given for two outputs"):
-        files.check_outputs(tmp_path / "hard.log", tmp_path / "run.log")
+        files.check_outputs(tmp_path / "hard.log", tmp_path / "run.log", inputs=())
     files.check_outputs(tmp_path / "a.json", tmp_path / "b.json", None, inputs=(log, None))
 
 

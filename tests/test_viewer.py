@@ -338,3 +338,48 @@ def test_intel_page_in_chromium(browser, built_map, tmp_path):
     mu = browser.execute_script("const v = window.fuzzybrepViewer; const [x, y] = arguments[0];"
                                 "return v.muAt(x, y).sweep", fuzzy.crisp.principal.vertices[0].tolist())
     assert 0.99 <= mu <= 1.0
+
+
+#: a file name and a unit an attacker would choose (issue 19): markup, a slot of the page's template,
+#: a comment opener that swallowed the viewer's own script, a script end tag
+HOSTILE_NAME = "x<img src=x onerror=\"window.pwned=1\">{{DATA}}<script>{{TITLE}}.json"  # no "/" in a name
+HOSTILE_UNIT = "<!--<script></script><img src=x onerror=\"window.pwned=1\">'&amp;\u2028"
+
+
+def hostile_map(tmp_path):
+    """The 4 × 4 square saved under HOSTILE_NAME with HOSTILE_UNIT as its unit; its path."""
+    m = tmp_path / HOSTILE_NAME
+    fuzzify(BRepMap.from_shapely(shapely.box(0, 0, 4, 4), HOSTILE_UNIT), tme=0.1).save(m, poses=[[1, 1, 0, 0]])
+    return m
+
+
+def test_hostile_name_and_unit_are_text_in_the_page(tmp_path):
+    # before: {{TITLE}} was filled first and {{DATA}} after it everywhere, so the name's "{{DATA}}"
+    # pasted the map's data, name and unit raw into the page: an <img onerror> element
+    m, out = hostile_map(tmp_path), tmp_path / "v.html"
+    assert main(["view", str(m), "--html", str(out)]) == 0
+    html = out.read_text(encoding="utf-8")
+    assert html.count("<script") == 2 and html.count("</script>") == 2 and "<img" not in html and "<!--" not in html
+    data = embedded(html)
+    assert data["name"] == HOSTILE_NAME and data["unit"] == HOSTILE_UNIT
+
+
+@pytest.mark.browser
+def test_hostile_name_and_unit_run_no_script_and_show_as_text(browser, tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    m, out = hostile_map(tmp_path), tmp_path / "v.html"
+    assert main(["view", str(m), "--html", str(out)]) == 0
+    open_page(browser, out)  # waits for the viewer's own script: a swallowed script never gets there
+    assert browser.execute_script("return window.pwned === undefined && document.images.length === 0")
+    assert browser.execute_script("return document.scripts.length") == 2
+    title = f"fuzzy B-rep map — {HOSTILE_NAME}"
+    assert browser.title == title and browser.find_element(By.ID, "title").text == title
+    canvas = browser.find_element(By.ID, "map")
+    size = canvas.size
+    sx, sy = browser.execute_script("return window.fuzzybrepViewer.toScreen(2, 2)")
+    ActionChains(browser).move_to_element_with_offset(
+        canvas, int(round(sx - size["width"] / 2)), int(round(sy - size["height"] / 2))).perform()
+    status = browser.execute_script("return document.getElementById('status').textContent")
+    assert re.search(r"x 2\.0\d\d, y 2\.0\d\d ", status) and f" {HOSTILE_UNIT} · μ = 0.000" in status, status

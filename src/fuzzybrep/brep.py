@@ -295,10 +295,12 @@ def validate_map(crisp: BRepMap) -> None:
         ring_of = np.repeat(np.arange(len(rings)), sizes)
         nxt = np.arange(len(V)) + 1
         nxt[start + sizes - 1] = start
-        finite = np.isfinite(V).all(axis=1)
+        with np.errstate(invalid="ignore"):
+            finite = (np.abs(V) <= LARGEST).all(axis=1)  # NaN and ±inf too
         dup = np.all(V == V[nxt], axis=1)
-        # a ring with a non-finite vertex is suspect already: 0 in its place keeps NumPy from
-        # warning (a second line before the error), and an area that overflows is not 0
+        # a ring with a vertex beyond ±LARGEST (or not finite) is suspect already: 0 in its place
+        # keeps NumPy and GEOS from warning (lines before the error), and validate_ring names it;
+        # judged only by area and simplicity, a ring reaching 1e308 passed unchecked
         Vf = np.where(finite[:, None], V, 0.0)
         x, y = Vf[:, 0], Vf[:, 1]
         with np.errstate(over="ignore", invalid="ignore"):
@@ -316,25 +318,36 @@ def validate_map(crisp: BRepMap) -> None:
 
 
 def _check_disjoint(crisp: BRepMap) -> None:
-    """GeometryError if two regions overlap. Each region is a piece of free space apart from the
-    others (meeting at points at most); overlapping ones were taken as they were, their common
-    area counted twice and the α-cuts and rasters of each drawn over the other's."""
+    """GeometryError if two regions overlap or share an edge. Each region is a piece of free space
+    apart from the others, meeting them at points at most (as a valid MultiPolygon's parts do):
+    overlapping ones were taken as they were, their common area counted twice and the α-cuts and
+    rasters of each drawn over the other's; ones sharing an edge made the crisp geometry invalid,
+    and ``alpha-cut --alpha 1 --method exact`` wrote invalid polygons."""
     if len(crisp.regions) < 2:
         return
     polys = np.array([region.to_shapely() for region in crisp.regions], dtype=object)
     a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
     a, b = a[a < b], b[a < b]
     inside = shapely.relate_pattern(polys[a], polys[b], "T********")  # interiors meet
-    if not inside.any():
+    edge = shapely.relate_pattern(polys[a], polys[b], "****1****")  # boundaries share a line
+    bad = inside | edge
+    if not bad.any():
         return
-    i, j = int(a[inside][0]), int(b[inside][0])
-    names = ["principal" if k == 0 else f"piece {k + 1}" for k in range(len(polys))]
+    k = int(np.argmax(bad))
+    i, j = int(a[k]), int(b[k])
+    names = ["principal" if n == 0 else f"piece {n + 1}" for n in range(len(polys))]
     shell = crisp.regions[j].shell.vertices
-    within = np.flatnonzero(shapely.contains_xy(polys[i], shell[:, 0], shell[:, 1]))
-    x, y = (shell[within[0]] if within.size else
-            np.asarray(shapely.intersection(polys[i], polys[j]).representative_point().coords[0]))
-    raise GeometryError(f"overlaps {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free space",
-                        ring=names[j], vertex=int(within[0]) + 1 if within.size else None)
+    if inside[k]:
+        within = np.flatnonzero(shapely.contains_xy(polys[i], shell[:, 0], shell[:, 1]))
+        x, y = (shell[within[0]] if within.size else
+                np.asarray(shapely.intersection(polys[i], polys[j]).representative_point().coords[0]))
+        raise GeometryError(f"overlaps {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free space",
+                            ring=names[j], vertex=int(within[0]) + 1 if within.size else None)
+    common = shapely.intersection(polys[i].boundary, polys[j].boundary)
+    on = np.flatnonzero(shapely.intersects_xy(common, shell[:, 0], shell[:, 1]))
+    x, y = shell[on[0]] if on.size else np.asarray(common.representative_point().coords[0])
+    raise GeometryError(f"shares an edge with {names[i]} near ({x:.6g}, {y:.6g}): regions are separate pieces of free "
+                        f"space, meeting at points at most", ring=names[j], vertex=int(on[0]) + 1 if on.size else None)
 
 
 def rings_to_shapely(rings: list[Ring]) -> np.ndarray:

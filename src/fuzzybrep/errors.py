@@ -60,6 +60,11 @@ class MapFileError(FuzzyBrepError):
         super().__init__(f"{self.path}: {message}")
 
 
+class FormatLimitError(FuzzyBrepError, ValueError):
+    """A map holds something a file format cannot hold exactly (a coordinate beyond its integer
+    range, a unit too long for its header, an FM index too large for its byte): says which and the limit."""
+
+
 class UMBmarkError(FuzzyBrepError, ValueError):
     """UMBmark stop positions are malformed or incomplete: names the file, line and field when read from one."""
 

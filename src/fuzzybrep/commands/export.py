@@ -46,8 +46,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..formats.export import DEFAULT_ALPHAS
-    from ..formats.files import check_outputs
+    from ..errors import MapFileError
+    from ..formats.export import (
+        DEFAULT_ALPHAS,
+        alpha_cut_features,
+        crisp_features,
+        membership_raster,
+        metres_per_unit,
+        write_geojson,
+        write_ros,
+    )
+    from ..formats.files import check_outputs, write_atomic
+    from ..formats.svg import svg_document
 
     if not (args.geojson or args.ros or args.svg or args.compact):
         print("fuzzybrep export: error: give at least one of --geojson, --ros, --svg, --compact", file=sys.stderr)
@@ -62,58 +72,49 @@ def run(args: argparse.Namespace) -> int:
     with steps(total) as step:
         step(f"reading {Path(args.map).name}")
         fuzzy = load_map(args)
+        # every output is made before any is written: one the format cannot hold, or a grid too
+        # large, leaves no other output behind (found by the fuzzer)
+        if args.compact:
+            from ..errors import FormatLimitError
+            from ..formats.compact import encode, stored_map
+
+            step(f"encoding {args.compact}")
+            mfs = fuzzy.table.to_dicts()
+            try:
+                stored = stored_map(fuzzy.crisp, mfs)
+                compact = encode(stored, mfs)
+            except FormatLimitError as e:
+                raise MapFileError(args.compact, f"cannot write a compact map: {e}") from None
+        if args.ros:
+            # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
+            step(f"membership raster for {args.ros}")
+            scale = metres_per_unit(fuzzy.unit)
+            ros_unit = "m" if scale else fuzzy.unit
+            try:
+                raster = membership_raster(fuzzy, args.resolution / (scale or 1.0), args.ros_method)
+            except ValueError as e:
+                raise MapFileError(Path(args.ros) / f"{name}.yaml", str(e)) from None
         cuts = []
         for a in alphas if with_cuts else []:
             step(f"α-cut at α = {a:g} ({args.method})")
             cuts.append(fuzzy.alpha_cut(a, args.method))
-        _write(args, fuzzy, cuts, alphas, name, step)
-    print(f"{time.perf_counter() - t0:.2f} s")
-    return 0
-
-
-def _write(args, fuzzy, cuts, alphas, name, step) -> None:
-    """Each output export was asked for, a step of the progress bar each."""
-    from ..errors import MapFileError
-    from ..formats.export import (
-        alpha_cut_features,
-        crisp_features,
-        membership_raster,
-        metres_per_unit,
-        write_geojson,
-        write_ros,
-    )
-    from ..formats.files import write_atomic
-    from ..formats.svg import svg_document
-
-    if args.geojson:
-        step(f"writing {args.geojson}")
-        n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
-        print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
-              f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
+        if args.svg:
+            step(f"drawing {args.svg}")
+            support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
+            svg = svg_document(fuzzy, cuts, support, title=Path(args.map).name).encode("utf-8")
+        if args.geojson:
+            step(f"writing {args.geojson}")
+            n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
+            print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
+                  f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
     if args.svg:
-        step(f"writing {args.svg}")
-        support = next((c for c in cuts if c.alpha == 0.0), None) or fuzzy.alpha_cut(0.0, args.method)
-        text = svg_document(fuzzy, cuts, support, title=Path(args.map).name)
-        n = write_atomic(args.svg, text.encode("utf-8"))
+        n = write_atomic(args.svg, svg)
         print(f"{args.svg}: {n} bytes")
     if args.compact:
-        step(f"writing {args.compact}")
-        from ..formats.compact import stored_map, write_compact
-
-        mfs = fuzzy.table.to_dicts()
-        stored = stored_map(fuzzy.crisp, mfs)
-        n = write_compact(args.compact, stored, mfs)
+        n = write_atomic(args.compact, compact)
         snapped = f", {fuzzy.crisp.n_vertices} before snap rounding" if stored is not fuzzy.crisp else ""
         print(f"{args.compact}: {n} bytes ({stored.n_vertices} vertices{snapped})")
     if args.ros:
-        # --resolution is in metres, as ROS has it, unless the map's unit is one we do not know
-        step(f"membership raster for {args.ros}")
-        scale = metres_per_unit(fuzzy.unit)
-        ros_unit = "m" if scale else fuzzy.unit
-        try:
-            raster = membership_raster(fuzzy, args.resolution / (scale or 1.0), args.ros_method)
-        except ValueError as e:
-            raise MapFileError(Path(args.ros) / f"{name}.yaml", str(e)) from None
         yaml_path, pgm_path = write_ros(args.ros, name, raster)
         h, w = raster.shape
         crisp_area = fuzzy.crisp_geometry.area
@@ -122,3 +123,5 @@ def _write(args, fuzzy, cuts, alphas, name, step) -> None:
         if not scale:
             print(f"note: the map's unit {fuzzy.unit!r} is not m, cm or mm: the YAML's resolution and origin are "
                   f"in {fuzzy.unit!r}, not in metres as ROS expects", file=sys.stderr)
+    print(f"{time.perf_counter() - t0:.2f} s")
+    return 0

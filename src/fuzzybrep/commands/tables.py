@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
             files[out / f"vertices_{slug(name)}.csv"] = _csv(VERTEX_HEADER, vertex_rows(fuzzy, k, num))
             files[out / f"edges_{slug(name)}.csv"] = _csv(EDGE_HEADER, edge_rows(fuzzy, k, ""))
         files[out / "membership_functions.csv"] = _csv(MF_HEADER, mf_rows(fuzzy, num))
-        check_outputs(*files)  # all before any: a failure leaves no partial set of tables
+        check_outputs(*files, inputs=(args.map,))  # all before any: a failure leaves no partial set of tables
         for path, data in files.items():
             write_atomic(path, data)
         print(f"{out}: {2 * len(names) + 1} tables ({len(names)} rings)")

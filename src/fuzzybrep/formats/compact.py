@@ -32,7 +32,7 @@ import numpy as np
 import shapely
 
 from ..brep import BRepMap, Region, Ring, frontier_fm, validate_map
-from ..errors import GeometryError, MapFileError
+from ..errors import FormatLimitError, GeometryError, MapFileError
 from .files import check_map, loads_json, write_atomic
 
 MAGIC = b"FBRC"
@@ -41,6 +41,14 @@ VERSION = 1
 QUANTUM = {"m": 0.001, "cm": 0.1, "mm": 1.0}
 
 FM_FROM_KINDS, FM_EXPLICIT = 0, 1
+#: coordinates are held as whole quanta up to ±2**53: exact in a float64 (and in JavaScript, for
+#: the viewer); beyond, int64 steps overflowed without a word (a square [0, 1e16]² read back as
+#: [-9.22e15, 0]², mirrored)
+MAX_QUANTA = 2**53
+#: a varint of more than 10 bytes (or of 10 whose last byte is above 1) holds more than 64 bits
+MAX_VARINT_BYTES = 10
+#: the unit's length in the header (one byte) and an explicit FM index (one byte per vertex)
+MAX_UNIT_BYTES = MAX_FM = 255
 
 
 # -- varints ---------------------------------------------------------------------------------
@@ -65,22 +73,34 @@ def encode_varints(values: np.ndarray) -> bytes:
     return out.tobytes()
 
 
-def decode_varints(buf: bytes | np.ndarray, count: int, offset: int = 0) -> tuple[np.ndarray, int]:
-    """``count`` zigzag varints starting at ``offset``; returns the values and the next offset."""
-    b = np.frombuffer(buf, np.uint8, offset=offset) if isinstance(buf, (bytes, bytearray)) else buf[offset:]
-    ends = np.flatnonzero((b & 0x80) == 0)
-    if len(ends) < count:
+def decode_varints(buf: bytes | np.ndarray, count: int, offset: int = 0,
+                   ends: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """``count`` zigzag varints starting at ``offset``; returns the values and the next offset.
+
+    ``ends``: the positions of every byte of ``buf`` without the continuation bit, found once for
+    the whole buffer (``_Reader``); without it they are found here, which costs the rest of the
+    buffer on every call (a file of 300,000 empty rings took 150 s). ValueError for data that
+    ends first or a varint longer than ``MAX_VARINT_BYTES``."""
+    b = np.frombuffer(buf, np.uint8) if isinstance(buf, (bytes, bytearray, memoryview)) else np.asarray(buf)
+    if ends is None:
+        ends = offset + np.flatnonzero((b[offset:] & 0x80) == 0)
+    first = int(np.searchsorted(ends, offset))
+    if len(ends) - first < count:
         raise ValueError("truncated varint data")
-    ends = ends[:count]
-    stop = int(ends[-1]) + 1 if count else 0
-    starts = np.r_[0, ends[:-1] + 1] if count else np.zeros(0, np.int64)
-    lengths = ends - starts + 1
+    e = ends[first:first + count]
+    if not count:
+        return np.zeros(0, np.int64), offset
+    starts = np.r_[offset, e[:-1] + 1]
+    lengths = e - starts + 1
+    long = (lengths > MAX_VARINT_BYTES) | ((lengths == MAX_VARINT_BYTES) & (b[e] > 1))
+    if long.any():
+        raise ValueError(f"the varint at byte {int(starts[np.argmax(long)])} holds more than 64 bits")
     z = np.zeros(count, np.uint64)
-    for k in range(int(lengths.max(initial=0))):
+    for k in range(int(lengths.max())):
         live = lengths > k
         z[live] |= (b[starts[live] + k].astype(np.uint64) & np.uint64(0x7F)) << np.uint64(7 * k)
     v = (z >> np.uint64(1)).astype(np.int64) ^ -(z & np.uint64(1)).astype(np.int64)
-    return v, offset + stop
+    return v, int(e[-1]) + 1
 
 
 # -- the map ---------------------------------------------------------------------------------
@@ -95,13 +115,56 @@ def fm_from_kinds(kinds: np.ndarray) -> np.ndarray:
 def encode(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> bytes:
     """The compact encoding of a map (see the module doc)."""
     q, fm_mode = _quantum(crisp, quantum), _fm_mode(crisp, membership_functions)
+    _check_limits(crisp, membership_functions, q, fm_mode)
     return _encode(_stored(crisp, membership_functions, q, fm_mode), membership_functions, q, fm_mode)
 
 
 def stored_map(crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> BRepMap:
     """The map as the compact encoding stores it, before rounding: ``crisp`` itself, or where
     rounding to the quantum would make it invalid, ``crisp`` snap-rounded (``snap_rounded``)."""
-    return _stored(crisp, membership_functions, _quantum(crisp, quantum), _fm_mode(crisp, membership_functions))
+    q, fm_mode = _quantum(crisp, quantum), _fm_mode(crisp, membership_functions)
+    _check_limits(crisp, membership_functions, q, fm_mode)
+    return _stored(crisp, membership_functions, q, fm_mode)
+
+
+def to_quanta(values, q: float, what) -> np.ndarray:
+    """``rint(values / q)`` as int64, or FormatLimitError when one is beyond ±``MAX_QUANTA``
+    (where whole quanta stop being exact, and soon after wrap round int64). ``what(i)``
+    names the row i of the first one too far (its ring and vertex)."""
+    v = np.asarray(values, dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        scaled = v / q
+    far = ~(np.abs(scaled) <= MAX_QUANTA)
+    if far.any():
+        i = int(np.argmax(far.reshape(len(v), -1).any(axis=1))) if v.ndim > 1 else int(np.argmax(far))
+        raise FormatLimitError(f"{what(i)}: coordinate {np.asarray(v[i]).tolist()} is beyond ±{MAX_QUANTA * q:.6g}, "
+                               f"the most this format holds in steps of {q:g}")
+    return np.rint(scaled).astype(np.int64)
+
+
+def ring_vertex_namer(crisp: BRepMap):
+    """``what`` for ``to_quanta`` over every vertex of ``crisp`` stacked in ``rings`` order."""
+    sizes = np.cumsum([len(r) for r in crisp.rings])
+    names = crisp.ring_names()
+
+    def what(i: int) -> str:
+        k = int(np.searchsorted(sizes, i, side="right"))
+        return f"{names[k]}, vertex {i - (int(sizes[k - 1]) if k else 0) + 1}"
+
+    return what
+
+
+def _check_limits(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode: int) -> None:
+    """FormatLimitError, before anything is encoded, for what the layout cannot hold: a unit of more
+    than 255 bytes, an FM index above 255, a coordinate beyond ±MAX_QUANTA quanta."""
+    unit = crisp.unit.encode("utf-8")
+    if len(unit) > MAX_UNIT_BYTES:
+        raise FormatLimitError(f"the unit is {len(unit)} bytes long; the compact map holds at most {MAX_UNIT_BYTES}")
+    if fm_mode == FM_EXPLICIT:
+        top = max(int(r.fm.max(initial=1)) for r in crisp.rings)
+        if top > MAX_FM:
+            raise FormatLimitError(f"FM index {top} does not fit the compact map (at most {MAX_FM})")
+    to_quanta(np.vstack([r.vertices for r in crisp.rings]), q, ring_vertex_namer(crisp))
 
 
 def _stored(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode: int) -> BRepMap:
@@ -190,8 +253,6 @@ def _encode(crisp: BRepMap, membership_functions: list[dict], q: float, fm_mode:
         prev = v[0]
         parts += [encode_varints([len(r)]), encode_varints(d.ravel()), np.packbits(r.kinds.astype(bool)).tobytes()]
         if fm_mode == FM_EXPLICIT:
-            if r.fm.max(initial=1) > 255:
-                raise ValueError("FM indices above 255 do not fit the compact encoding")
             parts.append(r.fm.astype(np.uint8).tobytes())
     return b"".join(parts)
 
@@ -202,6 +263,11 @@ class _Reader:
 
     def __init__(self, data: bytes):
         self.data, self.o = data, 0
+        self.ends = np.flatnonzero((np.frombuffer(data, np.uint8) & 0x80) == 0)  # once: decoding stays linear
+
+    @property
+    def left(self) -> int:
+        return len(self.data) - self.o
 
     def short(self, what: str) -> ValueError:
         return ValueError(f"truncated: the data ends at byte {len(self.data)}, in {what}")
@@ -212,17 +278,43 @@ class _Reader:
         self.o += n
         return self.data[self.o - n : self.o]
 
+    def one(self, what: str) -> int:
+        """One varint, in plain Python: NumPy's overhead for a single count was most of the time
+        spent on a map of many small rings."""
+        data, o, z, shift = self.data, self.o, 0, 0
+        while True:
+            if o >= len(data):
+                raise self.short(what)
+            byte = data[o]
+            z |= (byte & 0x7F) << shift
+            o += 1
+            if byte < 0x80:
+                break
+            shift += 7
+            if shift >= 7 * MAX_VARINT_BYTES:
+                break
+        if byte >= 0x80 or z >= 2**64:
+            raise ValueError(f"{what}: the varint at byte {self.o} holds more than 64 bits")
+        self.o = o
+        return (z >> 1) ^ -(z & 1)
+
     def varints(self, count: int, what: str) -> np.ndarray:
+        if count == 1:
+            return np.array([self.one(what)], np.int64)
         try:
-            v, self.o = decode_varints(self.data, count, self.o)
-        except ValueError:
-            raise self.short(what) from None
+            v, self.o = decode_varints(self.data, count, self.o, self.ends)
+        except ValueError as e:
+            raise (self.short(what) if str(e).startswith("truncated") else ValueError(f"{what}: {e}")) from None
         return v
 
-    def counts(self, count: int, what: str) -> np.ndarray:
+    def counts(self, count: int, what: str, each: int = 1) -> np.ndarray:
+        """``count`` counts of things that take at least ``each`` byte(s) each in what follows: a
+        count larger than the bytes left cannot be right (and summed, 2**62 holes wrapped to 0)."""
         v = self.varints(count, what)
         if (v < 0).any():
             raise ValueError(f"{what}: negative count {int(v.min())}")
+        if count and int(v.max()) * each > self.left:
+            raise self.short(f"{what} (a count of {int(v.max())} needs more bytes than the {self.left} left)")
         return v
 
 
@@ -253,14 +345,22 @@ def decode(data: bytes) -> tuple[BRepMap, list[dict]]:
         mfs.append(mf)
     (n_regions,) = f.counts(1, "the region count")
     holes = f.counts(int(n_regions), "the hole counts")
+    n_rings = int(n_regions) + sum(int(h) for h in holes)  # Python ints: no wrap
+    if n_rings > f.left:  # every ring takes a byte at least
+        raise f.short(f"the rings ({n_rings} declared, {f.left} bytes left)")
     prev = np.zeros(2, np.int64)
     rings = []
-    for k in range(int(n_regions + holes.sum())):
+    for k in range(n_rings):
         what = f"ring {k + 1}"
-        (n,) = f.counts(1, what)
+        (n,) = f.counts(1, what, each=2)
         n = int(n)
-        d = f.varints(2 * n, what)
-        v = np.cumsum(d.reshape(n, 2), axis=0) + prev
+        d = f.varints(2 * n, what).reshape(n, 2)
+        # each step is an int64 (MAX_VARINT_BYTES); their sums must stay within MAX_QUANTA,
+        # which a float sum shows without the int64 sum's silent wrap
+        far = ~(np.abs(np.cumsum(d, axis=0, dtype=np.float64) + prev) <= MAX_QUANTA).all(axis=1)
+        if far.any():
+            raise ValueError(f"{what}, vertex {int(np.argmax(far)) + 1}: coordinate beyond ±{MAX_QUANTA} quanta")
+        v = np.cumsum(d, axis=0) + prev
         prev = v[0] if n else prev
         kinds = np.unpackbits(np.frombuffer(f.bytes((n + 7) // 8, what), np.uint8))[:n]
         if fm_mode == FM_EXPLICIT:
@@ -276,7 +376,13 @@ def decode(data: bytes) -> tuple[BRepMap, list[dict]]:
 
 
 def write_compact(path: str | os.PathLike, crisp: BRepMap, membership_functions: list[dict], quantum: float | None = None) -> int:
-    return write_atomic(path, encode(crisp, membership_functions, quantum))
+    """Write the compact map atomically; MapFileError naming the file, before anything is written,
+    for a map the layout cannot hold (``_check_limits``)."""
+    try:
+        data = encode(crisp, membership_functions, quantum)
+    except FormatLimitError as e:
+        raise MapFileError(path, f"cannot write a compact map: {e}") from None
+    return write_atomic(path, data)
 
 
 def read_compact(path: str | os.PathLike) -> tuple[BRepMap, list[dict]]:

@@ -4,8 +4,12 @@ lost, JSON read the same way everywhere, and maps read from a file checked."""
 
 from __future__ import annotations
 
+import glob
 import json
 import os
+import stat
+import re
+import sys
 import tempfile
 from pathlib import Path
 
@@ -42,13 +46,14 @@ def check_writable(path: str | os.PathLike) -> None:
         raise MapFileError(path, f"cannot write: folder {folder} is not writable")
 
 
-def check_outputs(*paths: str | os.PathLike | None, inputs: tuple = ()) -> None:
+def check_outputs(*paths: str | os.PathLike | None, inputs: tuple) -> None:
     """``check_writable`` for every output a command was given (None: not asked for), before it
     writes any: a command whose last output cannot be written must not leave the first ones.
 
     An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
     keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
-    one output by another. Linear in the number of paths (``tables --csv`` checks one per ring:
+    one output by another. ``inputs`` has no default, so that no caller forgets it (``tables
+    --csv DIR`` did, and replaced a map named DIR/vertices_principal.csv). Linear in the number of paths (``tables --csv`` checks one per ring:
     pairwise, 6000 tables took ten minutes)."""
     given = [p for p in paths if p is not None]
     for p in given:
@@ -86,14 +91,26 @@ def _identities(path: str | os.PathLike) -> list:
 
 
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
-    """Write bytes so that the file is either the old one or the complete new one, never half."""
+    """Write bytes so that the file is either the old one or the complete new one, never half.
+
+    The bytes go to a temporary file beside it, ``.NAME.PID.XXXXXXXX.tmp``, which then replaces
+    it. A file being replaced keeps its permissions (a private 0600 map stayed private; it was
+    reset to 0644); a new one gets those of ``open(path, "w")``. A writer killed before the rename
+    leaves its temporary file behind: the next write of the same name removes every one whose
+    writer (PID) is no longer running on this machine (``_remove_stale``)."""
     path = Path(path)
     check_writable(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        _remove_stale(path)
         try:
-            os.fchmod(fd, FILE_MODE)
+            st = os.stat(path)
+            mode = stat.S_IMODE(st.st_mode) if stat.S_ISREG(st.st_mode) else FILE_MODE
+        except OSError:
+            mode = FILE_MODE
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
+        try:
+            os.fchmod(fd, mode)
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
                 f.flush()
@@ -105,6 +122,27 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     except OSError as e:
         raise MapFileError(path, f"cannot write: {e.strerror or e}") from None
     return len(data)
+
+
+def _remove_stale(path: Path) -> None:
+    """Remove the temporary files of ``write_atomic(path)`` left by writers that were killed:
+    those whose PID no longer runs. A live writer's file is left alone, and so is any other
+    file (one without a PID in its name is not ours to judge)."""
+    prefix = f".{path.name}."
+    for tmp in path.parent.glob(glob.escape(prefix) + "*.tmp"):
+        pid = tmp.name[len(prefix):].split(".", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
+            tmp.unlink(missing_ok=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True  # someone else's, or not a PID we can ask about: keep its file
+    return True
 
 
 def check_map(crisp: BRepMap, path: str | os.PathLike) -> None:
@@ -126,6 +164,53 @@ def _json_integer(text: str) -> int | float:
     return float(text)  # float() parses any length: inf beyond the largest float
 
 
+class JSONLimitError(json.JSONDecodeError):
+    """JSON that parses, or would, but that no reader of ours can take: nested too deeply for
+    Python's parser, or a string holding a lone UTF-16 surrogate (``"\\ud800"``), which is no text
+    and fails every later write (UnicodeEncodeError in ``view`` and ``export``). A JSONDecodeError,
+    so that every reader's "not valid JSON (...)" names the file."""
+
+    def __init__(self, message: str, doc: str = "", pos: int = 0):
+        ValueError.__init__(self, message)
+        self.msg, self.doc, self.pos, self.lineno, self.colno = message, doc, pos, 1, pos + 1
+
+
+#: a \uD800-\uDFFF escape: a surrogate, lone unless its pair follows; only files holding one are
+#: searched for a lone one (the search walks every string)
+_SURROGATE_ESCAPE = re.compile(r"\\u[dD][89a-fA-F][0-9a-fA-F]{2}")
+_SURROGATE_ESCAPE_BYTES = re.compile(_SURROGATE_ESCAPE.pattern.encode())
+
+
+def _lone_surrogate(obj) -> str | None:
+    """The first string (key or value) in a parsed JSON document that holds a lone surrogate."""
+    stack = [obj]
+    while stack:
+        o = stack.pop()
+        if isinstance(o, dict):
+            stack.extend(o.keys())
+            stack.extend(o.values())
+        elif isinstance(o, list):
+            stack.extend(o)
+        elif isinstance(o, str):
+            try:
+                o.encode("utf-8")
+            except UnicodeEncodeError:
+                return o
+    return None
+
+
 def loads_json(raw: str | bytes):
-    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf."""
-    return json.loads(raw, parse_int=_json_integer)
+    """``json.loads`` for the files fuzzybrep reads: integers too large for a float read as ±inf;
+    JSONLimitError (a JSONDecodeError) for nesting deeper than Python's parser goes (about 1000
+    levels: a RecursionError before) and for a string with a lone surrogate."""
+    try:
+        obj = json.loads(raw, parse_int=_json_integer)
+    except RecursionError:
+        raise JSONLimitError(f"nested more than {sys.getrecursionlimit()} levels deep, "
+                             f"beyond what the JSON parser reads") from None
+    if (_SURROGATE_ESCAPE if isinstance(raw, str) else _SURROGATE_ESCAPE_BYTES).search(raw):
+        bad = _lone_surrogate(obj)
+        if bad is not None:
+            shown = bad.encode("utf-8", "backslashreplace").decode()
+            raise JSONLimitError(f"the string \"{shown[:60]}\" holds a lone UTF-16 surrogate, which is not text")
+    return obj

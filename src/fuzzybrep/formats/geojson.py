@@ -24,19 +24,46 @@ import shapely
 
 from ..arrays import is_float
 from ..brep import BRepMap, locate_vertex, validate_ring
-from ..errors import GeometryError, MapFileError
+from ..errors import FormatLimitError, GeometryError, MapFileError
 from .files import loads_json
+
+
+#: the largest GeoJSON file read, and the most positions ([x, y]) it may hold: checked before
+#: the file is parsed, so that a file too large is refused before the memory for it is taken (a
+#: ring of 10**7 vertices, 289 MB, took 6.1 GB and ended in GEOS's std::bad_alloc). A floor plan
+#: holds thousands of positions; fuzzybrep's own α-cut exports of real logs, a few hundred thousand
+MAX_GEOJSON_BYTES = 512 * 2**20
+MAX_GEOJSON_POSITIONS = 5_000_000
+
+
+def geojson_text(path: str | os.PathLike) -> str:
+    """The text of a GeoJSON file (a byte-order mark, as Windows tools write, dropped), or
+    FormatLimitError when it is larger than MAX_GEOJSON_BYTES or holds more than
+    MAX_GEOJSON_POSITIONS positions (every position opens a '[': counted before parsing).
+    OSError and UnicodeDecodeError as reading raises them."""
+    path = Path(path)
+    size = path.stat().st_size
+    if size > MAX_GEOJSON_BYTES:
+        raise FormatLimitError(f"the file is {size / 2**20:.0f} MiB; GeoJSON is read up to {MAX_GEOJSON_BYTES // 2**20} MiB")
+    raw = path.read_bytes()
+    brackets = raw.count(b"[")
+    if brackets > MAX_GEOJSON_POSITIONS + 1000:  # every position has one; rings and polygons a few more
+        raise FormatLimitError(f"the file holds about {brackets} positions; GeoJSON is read with up to "
+                               f"{MAX_GEOJSON_POSITIONS}")
+    return raw.decode("utf-8-sig")
 
 
 def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
     """The crisp map in a GeoJSON file. MapFileError naming the file for anything wrong: unreadable,
-    wrong structure, or bad geometry (then also the feature, polygon, ring and vertex). ``unit``
-    None: the file's top-level "unit", else metres."""
+    too large (``geojson_text``), wrong structure, or bad geometry (then also the feature, polygon,
+    ring and vertex). ``unit`` None: the file's top-level "unit", else metres."""
     path = Path(path)
     try:
-        raw = path.read_text(encoding="utf-8-sig")  # a byte-order mark, as Windows tools write, is no JSON error
+        raw = geojson_text(path)
     except (OSError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
+    except FormatLimitError as e:
+        raise MapFileError(path, str(e)) from None
     try:
         obj = loads_json(raw)
     except json.JSONDecodeError as e:

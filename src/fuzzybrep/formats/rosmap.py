@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MapFileError
+from .escape import comment_line, yaml_scalar, yaml_unquote_double
 from .files import check_outputs, write_atomic
 
 #: map_saver's thresholds: p > 0.65 is occupied, p < 0.196 is free (the defaults everywhere)
@@ -95,7 +96,7 @@ def pgm_bytes(image: np.ndarray, comment: str | None = None) -> bytes:
     if img.ndim != 2 or img.dtype != np.uint8:
         raise ValueError(f"a PGM image must be a 2-D uint8 array, got {img.ndim}-D {img.dtype}")
     h, w = img.shape
-    head = "P5\n" + "".join(f"# {line}\n" for line in (comment or "").splitlines()) + f"{w} {h}\n255\n"
+    head = "P5\n" + "".join(f"# {comment_line(line)}\n" for line in (comment or "").splitlines()) + f"{w} {h}\n255\n"
     return head.encode("ascii") + np.ascontiguousarray(img).tobytes()
 
 
@@ -107,20 +108,11 @@ def _num(x: float) -> str:
     return f"{mant}.0e{exp}" if e and "." not in mant else r
 
 
-def _yaml_string(s: str) -> str:
-    """A string as a YAML scalar that reads back as the same string: plain when it is a plain file
-    name, else single-quoted. Plain, the image name of a map file called "run #3.json" read back
-    as "run" (a '#' after a space starts a comment), and ": " or a leading "[" is not a name at all."""
-    if re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", s):
-        return s
-    return "'" + s.replace("'", "''") + "'"  # YAML's one escape in single quotes
-
-
 def map_yaml(image_name: str, resolution: float, origin, negate: bool = False, occupied_thresh: float = OCCUPIED_THRESH,
              free_thresh: float = FREE_THRESH, mode: str | None = "trinary") -> str:
     """The YAML text of a map_server map (flat keys, ``origin`` as a flow list, as map_saver writes)."""
     ox, oy, yaw = (float(v) for v in origin)
-    lines = [f"image: {_yaml_string(image_name)}"]
+    lines = [f"image: {yaml_scalar(image_name)}"]  # a file name may hold anything but / and NUL
     if mode is not None:
         lines.append(f"mode: {mode}")
     lines += [
@@ -159,7 +151,7 @@ def write_ros_map(yaml_path: str | os.PathLike, image: np.ndarray, resolution: f
         data = pgm_bytes(image, comment)
     except ValueError as e:
         raise MapFileError(pgm_path, str(e)) from None
-    check_outputs(pgm_path, yaml_path)  # both before either: a YAML that cannot be written leaves no PGM
+    check_outputs(pgm_path, yaml_path, inputs=())  # both before either: a YAML that cannot be written leaves no PGM
     write_atomic(pgm_path, data)
     write_atomic(yaml_path, map_yaml(pgm_path.name, resolution, origin, negate, occupied_thresh, free_thresh,
                                      mode).encode())
@@ -288,7 +280,7 @@ def _strip_comment(line: str) -> str:
     quote = None
     for k, ch in enumerate(line):
         if quote:
-            if ch == quote:
+            if ch == quote and not (quote == '"' and _escaped(line, k)):
                 quote = None
         elif ch in "'\"":
             quote = ch
@@ -297,11 +289,19 @@ def _strip_comment(line: str) -> str:
     return line.rstrip()
 
 
+def _escaped(line: str, k: int) -> bool:
+    """Whether line[k] follows an odd number of backslashes (``\\"`` inside double quotes)."""
+    n = 0
+    while k - n - 1 >= 0 and line[k - n - 1] == "\\":
+        n += 1
+    return n % 2 == 1
+
+
 def _scalar(tok: str):
     if len(tok) >= 2 and tok[0] == tok[-1] == "'":
         return tok[1:-1].replace("''", "'")
     if len(tok) >= 2 and tok[0] == tok[-1] == '"':
-        return tok[1:-1]
+        return yaml_unquote_double(tok[1:-1])
     low = tok.lower()
     if low in ("true", "yes", "on"):
         return True

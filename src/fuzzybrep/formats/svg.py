@@ -12,12 +12,11 @@ width in screen pixels at any zoom (``vector-effect: non-scaling-stroke``).
 from __future__ import annotations
 
 import math
-from xml.sax.saxutils import escape
-
 import numpy as np
 import shapely
 
 from ..brep import FRONTIER, BRepMap
+from .escape import xml_text
 from .export import coordinate_quantum
 
 FREE = "#ffffff"
@@ -99,8 +98,8 @@ def svg_document(fuzzy, cuts, support=None, *, title: str | None = None, width_p
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<svg xmlns="http://www.w3.org/2000/svg" version="1.1" width="{width_px}" height="{height_px}" '
         f'viewBox="{f.format(vx)} {f.format(vy)} {f.format(vw)} {f.format(vh)}">',
-        f"<title>{escape(name)}</title>",
-        f"<desc>{escape(desc)}</desc>",
+        f"<title>{xml_text(name)}</title>",  # a map's unit and a file's name are text, whatever they hold
+        f"<desc>{xml_text(desc)}</desc>",
         "<style>path{vector-effect:non-scaling-stroke;stroke-linejoin:round}"
         ".cut{fill:none;stroke-width:1}.crisp{fill:none;stroke-width:1.2}</style>",
         f'<rect class="background" x="{f.format(vx)}" y="{f.format(vy)}" width="{f.format(vw)}" '

@@ -128,12 +128,14 @@ class MembershipFunction:
         if not math.isclose(mu0, 1.0, abs_tol=1e-12):
             raise MembershipFunctionError(f"{name}: criterion 3 of thesis 4.1.1 fails: μ(r) = {mu0:g}, must be 1")
         far = np.array([1.0, 1.0 + 1e-9, 1.5, 10.0, 1e6])
-        out = self.mu(far * self.tme_out)
+        with np.errstate(over="ignore"):  # a TME near the largest float: far points at ±inf, still beyond
+            far_out, far_in = far * self.tme_out, -far * self.tme_in
+        out = self.mu(far_out)
         if np.any(out != 0):
             raise MembershipFunctionError(
                 f"{name}: criterion 1 of thesis 4.1.1 fails: μ(r + TME) = {out[0]:.6g} with TME = {self.tme_out:g}, "
                 f"must be 0 for x ≥ r + TME{self._never_zero_hint()}")
-        inn = self.mu(-far * self.tme_in)
+        inn = self.mu(far_in)
         if np.any(inn != 0):
             raise MembershipFunctionError(
                 f"{name}: criterion 2 of thesis 4.1.1 fails: μ(r − TME) = {inn[0]:.6g} with TME = {self.tme_in:g}, "
@@ -473,10 +475,12 @@ class MembershipTable:
         bad = self.check_indices(fm)
         if bad is not None:
             raise MembershipFunctionError(f"FM index {int(fm.reshape(-1)[bad])} has no membership function in the table")
-        lut = np.zeros(self._max + 1)
-        for k, v in values.items():
-            lut[k] = v
-        return lut[fm]
+        # looked up by sorted index, not through a table as long as the largest index: a map file
+        # whose Table 4.2 numbers a function 10**12 asked for terabytes
+        keys = np.fromiter(values, dtype=np.int64, count=len(values))
+        order = np.argsort(keys)
+        vals = np.fromiter(values.values(), dtype=np.float64, count=len(values))[order]
+        return vals[np.searchsorted(keys[order], fm)]
 
     def d_in(self, fm, alpha: float) -> np.ndarray:
         """Per vertex: its function's d_in(α)."""
@@ -506,6 +510,11 @@ class MembershipTable:
         table = {}
         for pos, d in enumerate(items):
             index = d.get("index", pos + 1) if isinstance(d, Mapping) else pos + 1
+            if isinstance(index, bool) or not isinstance(index, int) or not 1 <= index < 2**31:
+                # as FM indices are (mapfile._whole): a dict or a list here was a TypeError traceback
+                shown = repr(index) if len(repr(index)) <= 40 else f"{repr(index)[:40]}..."
+                raise MembershipFunctionError(f"membership function {pos + 1}: index {shown} is not a whole number "
+                                              f"from 1 up")
             try:
                 f = from_dict(d)
             except MembershipFunctionError as e:

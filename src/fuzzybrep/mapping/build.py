@@ -190,17 +190,21 @@ def farthest_out(scans: Sequence[Scan], centre) -> tuple[str, float, str]:
     """What of the scans lies farthest from ``centre``, for a message on a map or grid too large to
     hold: (the scan's position or one beam's return, its distance, the scan's source). A corrupt
     range or pose is usually that one thing."""
-    best = (-1.0, 0, None)
+    best = (-1.0, 0, None, -1.0)
     for k, s in enumerate(scans):
         d_pose = float(np.hypot(*(s.pose[:2] - centre)))
         d_hit = np.hypot(*(s.endpoints()[s.returns] - centre).T)
         i = int(np.argmax(d_hit)) if len(d_hit) else None
         d = max(d_pose, float(d_hit[i]) if i is not None else -1.0)
-        if d > best[0]:
+        # a tie (two scans, or the median halfway between two: -1e308 in scan 2 put both 5e307
+        # from it, and scan 1 was blamed) goes to the one farther from (0, 0), where a corrupt
+        # number lands; ties are within a relative 1e-9
+        from_zero = float(np.hypot(*s.pose[:2]))
+        if d > best[0] * (1 + 1e-9) or (d >= best[0] * (1 - 1e-9) and from_zero > best[3]):
             # the scan itself lies far out, not just what one beam saw
             beam = None if i is None or d_pose >= d_hit[i] / 2 else int(np.flatnonzero(s.returns)[i])
-            best = (d, k, beam)
-    d, k, beam = best
+            best = (d, k, beam, from_zero)
+    d, k, beam, _ = best
     s = scans[k]
     what = f"the scan's position ({s.pose[0]:g}, {s.pose[1]:g})" if beam is None else f"beam {beam + 1}'s return"
     return what, d, s.source or f"scan {k}"

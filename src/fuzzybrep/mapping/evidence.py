@@ -339,7 +339,8 @@ def grid_frame(rays: "Rays | RayBatches", cell: float) -> tuple[np.ndarray, floa
             lo = np.minimum(lo, (xs.min(), ys.min()))
             hi = np.maximum(hi, (xs.max(), ys.max()))
     origin = lo - 2 * cell
-    return origin, np.floor((hi[0] - origin[0]) / cell) + 3, np.floor((hi[1] - origin[1]) / cell) + 3
+    with np.errstate(over="ignore", invalid="ignore"):  # a grid too large to hold measures inf: check_extent says so
+        return origin, np.floor((hi[0] - origin[0]) / cell) + 3, np.floor((hi[1] - origin[1]) / cell) + 3
 
 
 def time_ranks(t: np.ndarray) -> np.ndarray:

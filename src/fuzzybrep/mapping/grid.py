@@ -247,9 +247,11 @@ def lattice(xmin: float, ymin: float, xmax: float, ymax: float, resolution: floa
     Cell k spans [k, k+1) * resolution in world coordinates, so the origin is on the lattice and
     grids of different logs line up; one spare cell on each side. Grows with the box, so a box
     holding every beam bounds the grid before the beams are traced (``commands.grid``)."""
-    # NumPy's floor, not math's: a resolution fine enough to overflow gives an infinite size to refuse
-    i0, j0 = np.floor(np.divide((xmin, ymin), resolution)) - 1
-    nx, ny = np.floor(np.divide((xmax, ymax), resolution)) - (i0, j0) + 2
+    # NumPy's floor, not math's: a resolution fine enough to overflow gives an infinite size to
+    # refuse, which the caller does in one line (NumPy's warning about it came first)
+    with np.errstate(over="ignore", invalid="ignore"):
+        i0, j0 = np.floor(np.divide((xmin, ymin), resolution)) - 1
+        nx, ny = np.floor(np.divide((xmax, ymax), resolution)) - (i0, j0) + 2
     return float(i0), float(j0), float(nx), float(ny)
 
 

@@ -12,27 +12,22 @@ log has no no-return beams.
 
 from __future__ import annotations
 
-import gzip
-import io
 import os
-import zlib
+import re
 from pathlib import Path
 
 import numpy as np
 
 from ..arrays import is_float
 from ..errors import ScanFormatError
-from .report import BadLine, ReadReport
+from .report import BadLine, DamagedStream, ReadReport, matching_lines
 from .scan import Scan, even_bearings
 
 SCAN_MESSAGES = ("FLASER",)
 
 
-def _open_text(path: Path):
-    with open(path, "rb") as f:
-        magic = f.read(2)
-    raw = gzip.open(path, "rb") if magic == b"\x1f\x8b" else open(path, "rb")
-    return io.TextIOWrapper(raw, encoding="utf-8", errors="replace")
+#: a line of a scan message: its name, then whitespace or the end of the line
+_SCAN_LINE = re.compile(rb"(?m)^(?:" + b"|".join(re.escape(m.encode()) for m in SCAN_MESSAGES) + rb")(?![^\s])[^\n]*")
 
 
 def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
@@ -97,33 +92,22 @@ def read_carmen(
     skipped, errors = report.skipped, len(report.errors)  # a report may come with earlier reads in it
     rows: list[tuple[np.ndarray, np.ndarray, float, int]] = []
     try:
-        f = _open_text(path)
-    except OSError as e:
-        raise ScanFormatError(path, None, f"cannot open: {e.strerror or e}") from None
-    lineno = 0
-    try:
-        with f:
-            for lineno, line in enumerate(f, 1):
-                if not line.startswith(SCAN_MESSAGES):
-                    continue
-                parts = line.split()
-                if parts[0] not in SCAN_MESSAGES:
-                    continue
-                try:
-                    r, pose, t = _parse_flaser(parts)
-                except BadLine as e:
-                    err = e.error(path, lineno)
-                    if not skip_bad:
-                        raise err from None
-                    report.skip(err)
-                    continue
-                rows.append((r, pose, t, lineno))
-    except (EOFError, gzip.BadGzipFile, OSError, zlib.error) as e:
-        # a cut-off gzip stream, or a damaged block in it (zlib.error is no OSError): everything
-        # before the damage is kept only if the caller asked to skip
-        err = ScanFormatError(path, lineno + 1, f"file is truncated or corrupt ({e})")
+        # streamed, with a bounded line length (report.matching_lines); other messages are passed over unread
+        for lineno, line in matching_lines(path, _SCAN_LINE):
+            try:
+                r, pose, t = _parse_flaser(line.decode("utf-8", errors="replace").split())
+            except BadLine as e:
+                err = e.error(path, lineno)
+                if not skip_bad:
+                    raise err from None
+                report.skip(err)
+                continue
+            rows.append((r, pose, t, lineno))
+    except DamagedStream as err:
+        # a cut-off gzip stream, or a damaged block in it: everything before the damage is kept
+        # only if the caller asked to skip
         if not skip_bad:
-            raise err from None
+            raise
         report.skip(err)
     if not rows:
         if report.skipped > skipped:  # every FLASER line was skipped as bad: "none in this file" would mislead

@@ -18,11 +18,9 @@
 
 from __future__ import annotations
 
-import gzip
 import io
 import os
 import re
-import zlib
 from pathlib import Path
 
 import numpy as np
@@ -30,26 +28,25 @@ import numpy as np
 from ..arrays import is_float
 from ..errors import ScanFormatError
 from ..formats.files import write_atomic
-from .report import BadLine, ReadReport
+from .report import BadLine, DamagedStream, ReadReport, matching_lines
 from .scan import Scan
 
 COLUMNS = ("scan", "time", "x", "y", "theta", "bearing", "range")
 _MAX_RANGE = re.compile(r"#\s*max_range\s*[:=]\s*(\S+)")
 
 
-def _read_text(path: Path) -> str:
+#: the lines the reader looks at: not blank, and not a comment unless it may declare max_range
+#: (other comments and blank lines are passed over unread, at the speed of ``re``)
+_LINES = re.compile(rb"(?m)^[ \t\r\f\v]*(?:[^\s#]|#[ \t]*max_range)[^\n]*")
+
+
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, text) of the lines that matter, streamed with a bounded line length and a
+    guard against gzip bombs (``report.matching_lines``; a gzipped CSV was decompressed whole)."""
     try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise ScanFormatError(path, None, f"cannot open: {e.strerror or e}") from None
-    if raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (EOFError, OSError, zlib.error) as e:  # zlib.error: a damaged block, no OSError
-            raise ScanFormatError(path, None, f"gzip stream is truncated or corrupt ({e})") from None
-    # utf-8-sig: a spreadsheet's "CSV UTF-8" starts with a byte-order mark, which would be read
-    # as part of the first column's name
-    return raw.decode("utf-8-sig", errors="replace")
+        return [(n, b.decode("utf-8", errors="replace")) for n, b in matching_lines(path, _LINES)]
+    except DamagedStream as e:
+        raise ScanFormatError(path, None, f"gzip stream {e.reason.removeprefix('file ')}") from None
 
 
 def read_csv(
@@ -62,32 +59,31 @@ def read_csv(
     path = Path(path)
     report = report if report is not None else ReadReport()
     errors = len(report.errors)  # a report may come with earlier reads in it
-    lines = _read_text(path).splitlines()
+    lines = _read_lines(path)
     header_at = None
-    for i, line in enumerate(lines):
+    for i, (lineno, line) in enumerate(lines):
         s = line.strip()
-        if not s:
-            continue
         if s.startswith("#"):
             m = _MAX_RANGE.match(s)
             if m and max_range is None:
                 if not is_float(m.group(1)) or not float(m.group(1)) > 0:
-                    raise ScanFormatError(path, i + 1, f"max_range {m.group(1)!r} is not a positive number")
+                    raise ScanFormatError(path, lineno, f"max_range {m.group(1)!r} is not a positive number")
                 max_range = float(m.group(1))
             continue
         header_at = i
         break
     if header_at is None:
         raise ScanFormatError(path, None, "empty: no header line")
-    names = [c.strip().lower() for c in lines[header_at].split(",")]
+    header_line, header = lines[header_at]
+    names = [c.strip().lower() for c in header.split(",")]
     missing = [c for c in COLUMNS if c not in names]
     if missing:
-        raise ScanFormatError(path, header_at + 1, f"header lacks column(s) {', '.join(missing)}; expected {','.join(COLUMNS)}")
+        raise ScanFormatError(path, header_line, f"header lacks column(s) {', '.join(missing)}; expected {','.join(COLUMNS)}")
     cols = [names.index(c) for c in COLUMNS]
-    data_idx = [i for i in range(header_at + 1, len(lines)) if lines[i].strip() and not lines[i].lstrip().startswith("#")]
-    if not data_idx:
-        raise ScanFormatError(path, header_at + 1, "no scan rows after the header")
-    table = _parse_rows(path, lines, data_idx, cols, len(names), skip_bad, report)
+    data = [(n, line) for n, line in lines[header_at + 1:] if not line.lstrip().startswith("#")]
+    if not data:
+        raise ScanFormatError(path, header_line, "no scan rows after the header")
+    table = _parse_rows(path, data, cols, len(names), skip_bad, report)
     scans = _group(path, table, max_range if max_range is not None else np.inf, skip_bad, report)
     if not scans:
         first = f" (all skipped as bad; first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
@@ -97,24 +93,24 @@ def read_csv(
     return scans
 
 
-def _parse_rows(path, lines, data_idx, cols, ncols, skip_bad, report) -> np.ndarray:
+def _parse_rows(path, data: list[tuple[int, str]], cols, ncols, skip_bad, report) -> np.ndarray:
     """(m, 8) float array: the seven columns plus the 1-based file line of each row."""
     try:
         # fast path: the whole table at once; any problem falls back to row-by-row for a precise message
-        arr = np.loadtxt(io.StringIO("\n".join(lines[i] for i in data_idx)), delimiter=",", usecols=cols,
+        arr = np.loadtxt(io.StringIO("\n".join(line for _, line in data)), delimiter=",", usecols=cols,
                          ndmin=2, dtype=np.float64)
         # loadtxt reads the chosen columns of a row with extra fields without a word: count every row's
-        if arr.shape[0] == len(data_idx) and np.isfinite(arr).all() and (arr[:, 6] >= 0).all() \
-                and all(lines[i].count(",") == ncols - 1 for i in data_idx):
-            return np.column_stack((arr, np.asarray(data_idx, np.float64) + 1))
+        if arr.shape[0] == len(data) and np.isfinite(arr).all() and (arr[:, 6] >= 0).all() \
+                and all(line.count(",") == ncols - 1 for _, line in data):
+            return np.column_stack((arr, np.array([n for n, _ in data], np.float64)))
     except ValueError:
         pass
     rows = []
-    for i in data_idx:
+    for n, line in data:
         try:
-            rows.append(_parse_row(lines[i], cols, ncols) + [i + 1])
+            rows.append(_parse_row(line, cols, ncols) + [n])
         except BadLine as e:
-            err = e.error(path, i + 1)
+            err = e.error(path, n)
             if not skip_bad:
                 raise err from None
             report.skip(err)

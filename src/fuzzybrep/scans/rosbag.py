@@ -358,15 +358,17 @@ def _tf_tracks(path, moving, static) -> dict[str, Track]:
     return tracks
 
 
-def _chain(frame: str, tracks: dict[str, Track], fixed_frame: str | None) -> list[Track]:
-    """Tracks from ``frame`` up to the root (or to ``fixed_frame``), lowest first."""
+def _chain(frame: str, tracks: dict[str, Track], fixed_frame: str | None, path=None) -> list[Track]:
+    """Tracks from ``frame`` up to the root (or to ``fixed_frame``), lowest first; ScanFormatError
+    naming the bag for a loop (it read "cannot read as a ROS bag: ValueError: ...")."""
     out, seen = [], {frame}
     while frame in tracks and frame != fixed_frame:
         tr = tracks[frame]
         out.append(tr)
         frame = tr.parent
         if frame in seen:
-            raise ValueError(f"tf has a loop through frame {frame!r}")
+            raise ScanFormatError(path, None, f"tf has a loop through frame {frame!r}: a frame is its own "
+                                              f"ancestor, so no pose can be found for it")
         seen.add(frame)
     return out
 
@@ -407,7 +409,7 @@ def _place(path, raws, scan_topic, tf_tracks, odom, odom_topic, tolerance, fixed
 
 def _pose_chain(path, frame, tf_tracks, odom, odom_topic, fixed_frame, report) -> tuple[list[Track], str]:
     """The transforms that place ``frame``, and a phrase saying where they came from."""
-    chain = _chain(frame, tf_tracks, fixed_frame)
+    chain = _chain(frame, tf_tracks, fixed_frame, path)
     # tf places the laser in the world only if its chain climbs above the robot: one that stops at
     # odometry's child frame (a mount republished on /tf, as ROS 1's tf static_transform_publisher
     # does) says where the laser sits on the robot, and odometry where the robot is
@@ -433,7 +435,7 @@ def _pose_chain(path, frame, tf_tracks, odom, odom_topic, fixed_frame, report) -
     if frame not in tracks and frame != child:
         report.notes.append(f"laser frame {frame!r} is not in tf: taken to sit on odometry's frame {child!r}")
         frame = child
-    chain = _chain(frame, tracks, fixed_frame)
+    chain = _chain(frame, tracks, fixed_frame, path)
     if track not in chain:
         raise ScanFormatError(path, None, f"laser frame {frame!r} is not connected to odometry's frame {child!r} in tf")
     return chain, f"odometry {topic} ({parent} -> {child})" + (f" and tf to {frame}" if chain[0] is not track else "")

@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from ..errors import WorldError
+from ..errors import FormatLimitError, WorldError
 from ..formats.files import loads_json, write_atomic
+from ..formats.geojson import geojson_text
 
 #: glass lines may lie this far (m) off the free-space boundary; wall pieces shorter than twice
 #: this (the slivers a glass line's end cuts off the neighbouring wall) are dropped
@@ -197,9 +198,11 @@ def _feature(geom, props: dict) -> dict:
 def _read_geojson(path: str | os.PathLike) -> tuple[list[tuple[int, dict]], float]:
     """Features as (1-based index, {"geometry": shapely, "properties": dict}) and the unit scale."""
     try:
-        doc = loads_json(Path(path).read_text(encoding="utf-8-sig"))  # a byte-order mark is no JSON error
+        doc = loads_json(geojson_text(path))  # size-checked before parsing; a byte-order mark is no JSON error
     except OSError as e:
         raise WorldError(f"cannot read: {e.strerror or e}", path) from None
+    except FormatLimitError as e:
+        raise WorldError(str(e), path) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise WorldError(f"not valid JSON ({e})", path) from None
     if not isinstance(doc, dict) or "type" not in doc:

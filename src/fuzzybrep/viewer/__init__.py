@@ -16,13 +16,16 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import shapely
 
-from ..errors import MapFileError
+from ..errors import FormatLimitError, MapFileError
+from ..formats.compact import ring_vertex_namer, to_quanta
+from ..formats.escape import html_text, printable, script_json
 from ..formats.export import coordinate_quantum
 from ..formats.files import loads_json, write_atomic
 from ..geometry import polygonal
@@ -83,8 +86,9 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
     q = coordinate_quantum(crisp.unit, max(x1 - x0, y1 - y0))
     s = fuzzy.stack  # every ring's columns stacked in crisp.rings order
     sizes, starts, fm = s["sizes"], s["start"], s["fm"]
-    xi = np.rint(s["V"] / q).astype(np.int64)
-    ti = np.rint(s["TV"] / (q / 10)).astype(np.int64)
+    vertex = ring_vertex_namer(crisp)  # JavaScript's numbers hold whole quanta exactly up to 2**53, as compact's
+    xi = to_quanta(s["V"], q, vertex)
+    ti = to_quanta(s["TV"], q / 10, lambda i: f"{vertex(i)}'s normal line")
     steps = _table_steps(slider_levels)
     alphas = np.arange(steps + 1) / steps
     dec = max(0, -math.floor(math.log10(q / 100) + 1e-9))
@@ -103,7 +107,7 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
     out = {
         "format": FORMAT,
         "version": VERSION,
-        "name": name,
+        "name": printable(name),  # a file name's undecodable bytes, shown as escapes
         "unit": crisp.unit,
         "q": q,
         "rings": {"size": sizes.tolist(), "region": region.tolist(), "shell": shell.tolist()},
@@ -123,12 +127,12 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
     }
     if poses is not None and len(poses):
         p = np.asarray(poses, dtype=np.float64)
-        pi = np.rint(p[:, :2] / q).astype(np.int64)
+        pi = to_quanta(p[:, :2], q, lambda i: f"pose {i + 1}")
         h = np.rint(np.mod(p[:, 2] + np.pi, 2 * np.pi) * 1000 - np.pi * 1000).astype(np.int64)
         out["poses"] = {"x": _deltas(pi[:, 0], np.array([0])), "y": _deltas(pi[:, 1], np.array([0])),
                         "heading": h.tolist()}
     if path is not None and len(path):
-        pp = np.rint(np.asarray(path, dtype=np.float64)[:, :2] / q).astype(np.int64)
+        pp = to_quanta(np.asarray(path, dtype=np.float64)[:, :2], q, lambda i: f"path point {i + 1}")
         out["path"] = {"x": pp[:, 0].tolist(), "y": pp[:, 1].tolist()}
     return out
 
@@ -137,23 +141,28 @@ def _asset(name: str) -> str:
     return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
 
 
-def html_document(data: dict, title: str | None = None) -> str:
-    """The page: template, style, script and payload in one file."""
-    from xml.sax.saxutils import escape
+_SLOT = re.compile(r"\{\{(TITLE|CSS|JS|DATA)\}\}")
 
-    # "</" inside a script element would end it; "<\/" is the same JSON string
-    blob = json.dumps(data, separators=(",", ":"), ensure_ascii=False).replace("</", "<\\/")
-    page = _asset("page.html")
-    for key, value in (("{{TITLE}}", escape(title or f"fuzzy B-rep map — {data.get('name', 'map')}")),
-                       ("{{CSS}}", _asset("viewer.css")), ("{{JS}}", _asset("viewer.js")), ("{{DATA}}", blob)):
-        page = page.replace(key, value)
-    return page
+
+def html_document(data: dict, title: str | None = None) -> str:
+    """The page: template, style, script and payload in one file.
+
+    The template is filled in one pass, each slot escaped for where it stands: the title as HTML
+    text, the payload as JSON safe inside <script> (``escape.script_json``). Filled slot after slot,
+    a "{{DATA}}" in a map's file name was filled in turn: the map's strings pasted raw into the page."""
+    values = {"TITLE": html_text(title or f"fuzzy B-rep map — {data.get('name', 'map')}"),
+              "CSS": _asset("viewer.css"), "JS": _asset("viewer.js"), "DATA": script_json(data)}
+    return _SLOT.sub(lambda m: values[m.group(1)], _asset("page.html"))
 
 
 def write_html(out: str | os.PathLike, fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = None, *,
                name: str = "map", slider_levels: int = DEFAULT_SLIDER_LEVELS) -> int:
-    """Write the viewer page atomically; returns bytes written."""
-    data = payload(fuzzy, poses, path, name=name, slider_levels=slider_levels)
+    """Write the viewer page atomically; returns bytes written. MapFileError naming ``out`` for a
+    map whose coordinates the page cannot hold (``compact.to_quanta``)."""
+    try:
+        data = payload(fuzzy, poses, path, name=name, slider_levels=slider_levels)
+    except FormatLimitError as e:
+        raise MapFileError(out, f"cannot write the viewer: {e}") from None
     return write_atomic(out, html_document(data).encode("utf-8"))
 
 
