@@ -1,0 +1,153 @@
+"""export --bag (ROS 2 bag through rosbags) and --mcap (Foxglove schemas through mcap), read back
+with the same libraries: the grid is the Nav2 map's, the polygons are the map's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _floor import floor_map
+from fuzzybrep.cli import main
+from fuzzybrep.formats.export import DEFAULT_ALPHAS
+from fuzzybrep.formats.nav2 import map_values
+from fuzzybrep.formats.raster import membership_raster
+from fuzzybrep.formats.rings import polygon_rings
+
+
+def run(*argv) -> int:
+    return main([str(a) for a in argv])
+
+
+@pytest.fixture(scope="module")
+def floor():
+    return floor_map()
+
+
+def read_bag(path):
+    """{topic: (connection, message)} of a ROS 2 bag, deserialised by rosbags."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    out = {}
+    with Reader(path) as r:
+        for conn, t, raw in r.messages():
+            assert conn.topic not in out, "one message per topic"
+            out[conn.topic] = (conn, t, ts.deserialize_cdr(raw, conn.msgtype))
+    return out
+
+
+def same_rings(got: list[np.ndarray], want: list[np.ndarray], atol: float):
+    assert len(got) == len(want)
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(g, w, atol=atol, rtol=0)
+
+
+def expected(fz, method="sweep"):
+    cuts = [fz.alpha_cut(a, method) for a in DEFAULT_ALPHAS]
+    return {f"alpha-{c.alpha:g}-{role}": polygon_rings(getattr(c, role))
+            for c in cuts if c.alpha < 1 for role in ("inner", "outer")}
+
+
+def check_bag(path, fz, raster):
+    from rosbags.interfaces import QosDurability, QosHistory
+
+    msgs = read_bag(path)
+    assert set(msgs) == {"/map", "/map_boundary"}
+    conn, t, grid = msgs["/map"]
+    assert t == 0 and conn.msgtype == "nav_msgs/msg/OccupancyGrid"
+    for c in (conn, msgs["/map_boundary"][0]):  # latched: transient local, keep last 1
+        (qos,) = c.ext.offered_qos_profiles
+        assert qos.durability == QosDurability.TRANSIENT_LOCAL and qos.history == QosHistory.KEEP_LAST and qos.depth == 1
+    assert grid.header.frame_id == "map" and grid.info.resolution == np.float32(raster.resolution)  # float32 in ROS
+    assert (grid.info.width, grid.info.height) == (raster.shape[1], raster.shape[0])
+    assert (grid.info.origin.position.x, grid.info.origin.position.y) == raster.origin
+    np.testing.assert_array_equal(grid.data.reshape(grid.info.height, grid.info.width), map_values(raster)[::-1])
+    markers = msgs["/map_boundary"][2].markers
+    by_ns: dict[str, list] = {}
+    for m in markers:
+        assert m.header.frame_id == "map"
+        by_ns.setdefault(m.ns, []).append(m)
+    crisp = sorted(by_ns["crisp"], key=lambda m: m.id)
+    assert all(m.type == 4 for m in crisp)  # LINE_STRIP, closed
+    pts = [np.array([(p.x, p.y) for p in m.points]) for m in crisp]
+    assert all(np.array_equal(p[0], p[-1]) for p in pts)
+    same_rings([p[:-1] for p in pts], [r.vertices for r in fz.crisp.rings], atol=0)  # the map's rings, exactly
+    for ns, want in expected(fz).items():
+        got = [np.array([(p.x, p.y) for p in m.points])[:-1] for m in sorted(by_ns[ns], key=lambda m: m.id)]
+        same_rings(got, want, atol=0)
+    (frontier,) = by_ns["frontier"]
+    n_frontier = sum(int((r.kinds == 1).sum()) for r in fz.crisp.rings)
+    assert frontier.type == 5 and len(frontier.points) == 2 * n_frontier
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_bag_reads_back_with_rosbags(floor, tmp_path, storage, capsys):
+    path = tmp_path / "floor.json"
+    floor.save(path)
+    assert run("export", path, "--bag", tmp_path / "floor.bag", "--bag-storage", storage) == 0
+    assert "latched" in capsys.readouterr().out
+    check_bag(tmp_path / "floor.bag", floor, membership_raster(floor, 0.05, "exact"))
+    # written again over itself: replaced whole; a folder that is not a bag is refused
+    assert run("export", path, "--bag", tmp_path / "floor.bag", "--bag-storage", storage) == 0
+    check_bag(tmp_path / "floor.bag", floor, membership_raster(floor, 0.05, "exact"))
+    (tmp_path / "photos").mkdir()
+    assert run("export", path, "--bag", tmp_path / "photos") == 2
+    assert "not a ROS 2 bag" in capsys.readouterr().err
+    assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no temporary folder left
+
+
+def read_mcap(path):
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    out = {}
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            out[channel.topic] = (schema.name, message.log_time, decoded)
+    return out
+
+
+def check_mcap(path, fz, raster):
+    msgs = read_mcap(path)
+    name, t, grid = msgs["/map"]
+    assert name == "foxglove.Grid" and t == 0 and grid.frame_id == "map"
+    assert grid.column_count == raster.shape[1] and grid.cell_size.x == raster.resolution
+    assert (grid.pose.position.x, grid.pose.position.y) == raster.origin
+    fields = {f.name: f.offset for f in grid.fields}
+    assert {"red", "green", "blue", "alpha", "occupancy", "mu"} <= set(fields)
+    cells = np.frombuffer(grid.data, np.uint8).reshape(-1, grid.cell_stride)
+    occupancy = cells[:, fields["occupancy"]].view(np.int8).reshape(raster.shape)
+    np.testing.assert_array_equal(occupancy, map_values(raster)[::-1])
+    mu = np.ascontiguousarray(cells[:, fields["mu"]:fields["mu"] + 4]).view("<f4").reshape(raster.shape)
+    np.testing.assert_allclose(mu, raster.mu[::-1], atol=1e-6)
+    alpha = cells[:, fields["alpha"]].reshape(raster.shape)
+    np.testing.assert_array_equal(alpha == 0, raster.unknown[::-1])
+    name, _, update = msgs["/map_boundary"]
+    assert name == "foxglove.SceneUpdate"
+    entities = {e.id: e for e in update.entities}
+    assert all(e.frame_id == "map" for e in entities.values())
+    rings = [np.array([(p.x, p.y) for p in line.points]) for line in entities["crisp"].lines]
+    same_rings(rings, [r.vertices for r in fz.crisp.rings], atol=0)
+    for ns, want in expected(fz).items():
+        e = entities[ns]
+        assert {m.key: m.value for m in e.metadata}["role"] in ("inner", "outer")
+        same_rings([np.array([(p.x, p.y) for p in line.points]) for line in e.lines], want, atol=0)
+
+
+def test_mcap_reads_back_with_the_mcap_reader(floor, tmp_path, capsys):
+    path = tmp_path / "floor.json"
+    floor.save(path)
+    assert run("export", path, "--mcap", tmp_path / "floor.mcap") == 0
+    assert "foxglove.Grid" in capsys.readouterr().out
+    check_mcap(tmp_path / "floor.mcap", floor, membership_raster(floor, 0.05, "exact"))
+
+
+@pytest.mark.reallog
+def test_intel_bag_and_mcap_hold_the_map(built_map, tmp_path):
+    path, fz = built_map("intel")
+    assert run("export", path, "--bag", tmp_path / "intel.bag", "--mcap", tmp_path / "intel.mcap") == 0
+    raster = membership_raster(fz, 0.05, "exact")
+    check_bag(tmp_path / "intel.bag", fz, raster)
+    check_mcap(tmp_path / "intel.mcap", fz, raster)
