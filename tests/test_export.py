@@ -289,7 +289,7 @@ def test_svg_is_valid_xml_in_map_units_with_y_flipped(floor, floor_file, tmp_pat
     assert vx < x0 - TME and vx + vw > x1 + TME
     assert vy < -(y1 + TME) and vy + vh > -(y0 - TME)
     groups = {g.get("id"): g for g in root.iter(f"{SVG}g")}
-    assert set(groups) == {"support", "alpha-cuts", "crisp"}
+    assert set(groups) == {"support", "alpha-cuts", "crisp", "legend"}
     assert [p.get("class") for p in groups["support"]] == ["support", "free"]
     cuts = [(p.get("class"), p.get("data-alpha")) for p in groups["alpha-cuts"]]
     assert cuts == [("cut inner", "0"), ("cut outer", "0"), ("cut inner", "0.5"), ("cut outer", "0.5")]

@@ -5,8 +5,11 @@ with y flipped, so that north is up, and every coordinate is written as x, −y 
 map's coordinate quantum (``coordinate_quantum``: a millimetre for maps in metres). Layers, from
 the bottom: the support band (α = 0: outer polygons shaded, inner polygons over them in the free
 colour, so the shade is exactly outer − inner), the inner and outer α-cut outlines of the other
-levels, the crisp boundary (obstacle edges dark, frontier edges orange). Strokes keep their
-width in screen pixels at any zoom (``vector-effect: non-scaling-stroke``).
+levels, the crisp boundary (obstacle edges dark, frontier edges orange); below the map a legend
+and a scale bar. Stroke widths are real widths in map units, a pixel of the picture's nominal
+width each (``width_px``): every renderer draws them alike (librsvg ignores CSS
+``vector-effect: non-scaling-stroke``, which drew the lines 1 m wide outside browsers), and they
+grow as one zooms in, as a drawing's lines do.
 """
 
 from __future__ import annotations
@@ -26,6 +29,20 @@ OBSTACLE_EDGE = "#1f3a5f"
 FRONTIER_EDGE = "#e07b39"
 INNER = "#2b7bba"
 OUTER = "#c0392b"
+TEXT = "#222222"
+#: stroke widths and legend sizes in pixels of the picture's nominal width
+CRISP_PX, FRONTIER_PX, CUT_PX = 1.2, 2.0, 0.9
+LEGEND_PX, FONT_PX = 64, 12
+
+
+def scale_bar_length(extent: float) -> float:
+    """A round length (1, 2 or 5 × 10^k) near a fifth of ``extent``, for the scale bar."""
+    target = max(extent, 1e-300) / 5
+    k = math.floor(math.log10(target))
+    for m in (5, 2, 1):
+        if m * 10.0 ** k <= target:
+            return m * 10.0 ** k
+    return 10.0 ** k
 
 
 def _decimals(quantum: float) -> int:
@@ -87,9 +104,12 @@ def svg_document(fuzzy, cuts, support=None, *, title: str | None = None, width_p
     q = coordinate_quantum(crisp.unit, extent)
     dec = _decimals(q)
     pad = 0.02 * extent
-    vx, vy, vw, vh = x0 - pad, -(y1 + pad), (x1 - x0) + 2 * pad, (y1 - y0) + 2 * pad
+    vx, vy, vw, mh = x0 - pad, -(y1 + pad), (x1 - x0) + 2 * pad, (y1 - y0) + 2 * pad
+    u = vw / width_px  # one pixel of the picture, in map units
+    vh = mh + LEGEND_PX * u  # the map, then the legend below it
     height_px = max(1, round(width_px * vh / vw))
     f = f"{{:.{dec}f}}"
+    g = lambda v: f"{v:.9g}"  # noqa: E731  widths and legend coordinates
     name = title or "fuzzy B-rep map"
     levels = ", ".join(f"{c.alpha:g}" for c in cuts)
     desc = (f"fuzzy B-rep map: {crisp.n_vertices} vertices, {crisp.n_holes} holes, unit {crisp.unit}, y up; "
@@ -100,10 +120,11 @@ def svg_document(fuzzy, cuts, support=None, *, title: str | None = None, width_p
         f'viewBox="{f.format(vx)} {f.format(vy)} {f.format(vw)} {f.format(vh)}">',
         f"<title>{xml_text(name)}</title>",  # a map's unit and a file's name are text, whatever they hold
         f"<desc>{xml_text(desc)}</desc>",
-        "<style>path{vector-effect:non-scaling-stroke;stroke-linejoin:round}"
-        ".cut{fill:none;stroke-width:1}.crisp{fill:none;stroke-width:1.2}</style>",
+        f"<style>path{{stroke-linejoin:round;stroke-linecap:round}}.cut{{fill:none;stroke-width:{g(CUT_PX * u)}}}"
+        f".crisp{{fill:none;stroke-width:{g(CRISP_PX * u)}}}.crisp.frontier{{stroke-width:{g(FRONTIER_PX * u)}}}"
+        f"text{{font-family:'DejaVu Sans',Arial,Helvetica,sans-serif;font-size:{FONT_PX}px;fill:{TEXT}}}</style>",
         f'<rect class="background" x="{f.format(vx)}" y="{f.format(vy)}" width="{f.format(vw)}" '
-        f'height="{f.format(vh)}" fill="{BACKGROUND}"/>',
+        f'height="{f.format(mh)}" fill="{BACKGROUND}"/>',
         '<g id="support" fill-rule="evenodd" stroke="none">',
         f'<path class="support" fill="{SUPPORT}" d="{path_data(support.outer, dec)}"/>',
         f'<path class="free" fill="{FREE}" d="{path_data(support.inner, dec)}"/>',
@@ -126,8 +147,43 @@ def svg_document(fuzzy, cuts, support=None, *, title: str | None = None, width_p
     frontier = _frontier_paths(crisp, dec)
     if frontier:
         lines.append(f'<path class="crisp frontier" stroke="{FRONTIER_EDGE}" d="{frontier}"/>')
-    lines += ["</g>", "</svg>", ""]
+    lines.append("</g>")
+    lines += _legend(vx, vy + mh, vw, u, g, crisp.unit, levels, cuts[0].method if cuts else support.method)
+    lines += ["</svg>", ""]
     return "\n".join(lines)
 
 
-__all__ = ["path_data", "svg_document"]
+def _legend(x: float, y: float, width: float, u: float, g, unit: str, levels: str, method: str) -> list[str]:
+    """The legend and the scale bar, in the band of LEGEND_PX pixels below the map.
+
+    Drawn in a group scaled to pixels (``transform``), so that the text's font size is 12 there:
+    a font size of a hundredth of a user unit, scaled up, comes out garbled in librsvg (hinting)."""
+    out = [f'<g id="legend" transform="translate({g(x)} {g(y)}) scale({g(u)})">',
+           f'<rect x="0" y="0" width="{g(width / u)}" height="{LEGEND_PX}" fill="#ffffff"/>']
+    row1, row2 = 22, 48
+    items = [("swatch", SUPPORT, "support band (α = 0)"), ("swatch", BACKGROUND, "outside the map"),
+             ("line", OBSTACLE_EDGE, "obstacle edge"), ("line", FRONTIER_EDGE, "frontier edge"),
+             ("line", INNER, "inner α-cut"), ("line", OUTER, "outer α-cut")]
+    cx = 10.0
+    for kind, colour, label in items:
+        if kind == "swatch":
+            out.append(f'<rect x="{g(cx)}" y="{row1 - 10}" width="18" height="12" fill="{colour}" '
+                       f'stroke="#888888" stroke-width="0.6"/>')
+        else:
+            out.append(f'<path d="M{g(cx)} {row1 - 4}h18" stroke="{colour}" stroke-width="2.2"/>')
+        out.append(f'<text x="{g(cx + 23)}" y="{row1}">{xml_text(label)}</text>')
+        cx += 30 + 7.0 * len(label)
+    out.append(f'<text x="10" y="{row2}">α-cuts at α = {xml_text(levels)} ({xml_text(method)}), outlines more opaque '
+               f'as α grows; y up, unit {xml_text(unit)}</text>')
+    # the scale bar, at the right of the second row; data-length in map units
+    length = scale_bar_length(width)
+    x1 = width / u - 14
+    x0 = x1 - length / u
+    out.append(f'<path class="scale-bar" data-length="{g(length)}" d="M{g(x0)} {row2 - 5}V{row2}H{g(x1)}V{row2 - 5}" '
+               f'fill="none" stroke="{TEXT}" stroke-width="1.5"/>')
+    out.append(f'<text x="{g((x0 + x1) / 2)}" y="{row2 - 8}" text-anchor="middle">{xml_text(f"{length:g} {unit}")}</text>')
+    out.append("</g>")
+    return out
+
+
+__all__ = ["path_data", "scale_bar_length", "svg_document"]
