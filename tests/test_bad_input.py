@@ -441,7 +441,7 @@ def test_absurdly_large_cell_or_tolerance_is_not_a_traceback(tmp_path, capsys):
     assert "cells at 1e+300 m" in capsys.readouterr().out
     assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "1e300"]) == 0
     out = capsys.readouterr().out
-    assert "cells of 1e+300 m, free area 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
+    assert "cells of 1e+300 m, μ by exact: free 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
 
 
 # ------------------------------------------------------------------------- scans that bound no free space

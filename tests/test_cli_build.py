@@ -37,6 +37,15 @@ def test_build_writes_a_fuzzy_map_and_a_picture(tmp_path, capsys):
     (summary,) = [line for line in err.splitlines() if "vertices" in line]
     assert summary.startswith("scans.csv: 12 scans") and f"-> {out}, " in summary and summary.endswith("scans/s)")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the picture shows the band it built (issue 20: it drew the crisp map only)
+    from PIL import Image
+
+    from fuzzybrep.plot import BAND
+
+    with Image.open(png) as im:
+        img = np.asarray(im.convert("RGB"), dtype=np.int16)
+    band = np.array([int(BAND[i:i + 2], 16) for i in (1, 3, 5)])
+    assert (np.abs(img - band).sum(axis=2) < 60).mean() > 0.002
     m = read_map(out)
     assert len(m.poses) == 12 and m.metadata["scans"] == 12
     # fuzzified with the default TME; frontier edges have their own membership function

@@ -215,6 +215,29 @@ def test_slider_redraws_the_alpha_cut(browser, floor_page, tmp_path):
 
 
 @pytest.mark.browser
+def test_scale_bar_is_a_round_length_of_the_map_at_the_zoom(browser, floor_page, tmp_path):
+    open_page(browser, floor_page)
+    bar = browser.execute_script("return window.fuzzybrepViewer.scaleBar")
+    width = browser.execute_script("return document.getElementById('map').clientWidth")
+    # a round length near a fifth of the view (1, 2 or 5 × 10^k), drawn at the map's scale
+    assert bar["length"] in (1.0, 2.0, 5.0) and bar["pixels"] == pytest.approx(bar["length"] * bar["scale"])
+    assert width / 12 < bar["pixels"] <= width / 5 + 1e-9
+    # its pixels are dark on the canvas: the bar is drawn where it says
+    dark = browser.execute_script(
+        "const b = window.fuzzybrepViewer.scaleBar, c = document.getElementById('map').getContext('2d');"
+        "const r = devicePixelRatio, d = c.getImageData(Math.round((b.x + b.pixels / 4) * r), Math.round((b.y - 2) * r), 1, 4 * r).data;"
+        "let m = 765; for (let i = 0; i < d.length; i += 4) m = Math.min(m, d[i] + d[i + 1] + d[i + 2]); return m;")
+    keep_screenshot(browser, tmp_path / "floor-scalebar.png", "floor-scalebar.png")
+    assert dark < 450  # antialiased: grey, not the white box (765)
+    # zoomed in 10 times: a length a tenth as long, as many pixels again within the same bounds
+    browser.execute_script("const v = window.fuzzybrepViewer; v.zoom(10); v.draw();")
+    zoomed = browser.execute_script("return window.fuzzybrepViewer.scaleBar")
+    assert zoomed["length"] == pytest.approx(bar["length"] / 10)
+    assert width / 12 < zoomed["pixels"] <= width / 5 + 1e-9
+    keep_screenshot(browser, tmp_path / "floor-zoomed.png", "floor-zoomed.png")
+
+
+@pytest.mark.browser
 def test_status_line_shows_mu_under_the_cursor(browser, floor, floor_page):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By

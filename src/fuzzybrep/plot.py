@@ -12,6 +12,10 @@ from .brep import FRONTIER, BRepMap, Ring
 FREE = "#dbe9f6"
 OBSTACLE_EDGE = "#1f3a5f"
 FRONTIER_EDGE = "#e07b39"
+#: the support band (0 < μ): the viewer's and the SVG's amber, not the frontier's orange
+BAND = "#f2c46d"
+INNER = "#2b7bba"
+OUTER = "#c0392b"
 
 
 def _agg():
@@ -78,15 +82,41 @@ def _map_figure(plt, crisp: BRepMap):
     return plt.subplots(figsize=(10, max(3.5, min(14, 10 * aspect))))
 
 
+def draw_band(ax, fuzzy, alphas=(0.5,)) -> list:
+    """The support band (α = 0: from the inner to the outer polygons) shaded, and the inner and outer
+    α-cuts of ``alphas`` outlined; returns legend handles. The α-cuts are ``fuzzy.alpha_cut``'s
+    default method, which the legend names."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    support = fuzzy.alpha_cut(0.0)
+    fill_geometry(ax, support.band, facecolor=BAND, edgecolor="none", alpha=0.85)
+    handles = [Patch(facecolor=BAND, alpha=0.85, label=f"support band, μ > 0 ({support.method} α-cut at 0)")]
+    for a in alphas:
+        cut = fuzzy.alpha_cut(a)
+        for geom, colour, role in ((cut.inner, INNER, "inner"), (cut.outer, OUTER, "outer")):
+            for part in shapely.get_parts(geom):
+                for ring in (part.exterior, *part.interiors):
+                    xy = np.asarray(ring.coords)
+                    ax.plot(xy[:, 0], xy[:, 1], color=colour, lw=0.35)
+            handles.append(Line2D([], [], color=colour, lw=0.8, label=f"{role} α-cut, α = {a:g}"))
+    return handles
+
+
 def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray | None = None, title: str | None = None,
-                    dpi: int = 150) -> None:
-    """A picture of a crisp map: free space filled, obstacle edges dark, frontier edges orange."""
+                    dpi: int = 150, fuzzy=None) -> None:
+    """A picture of a map: free space filled, obstacle edges dark, frontier edges orange; with
+    ``fuzzy``, its support band shaded and the α-cuts at 0.5 outlined under the crisp edges."""
     plt = _agg()
     from matplotlib.lines import Line2D
 
     fig, ax = _map_figure(plt, crisp)
     draw_map(ax, crisp, poses, title)
-    handles = [Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"), Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
+    band = draw_band(ax, fuzzy) if fuzzy is not None else []
+    if fuzzy is not None:
+        draw_edges(ax, crisp.rings)  # the crisp boundary over the band
+    handles = band + [Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"),
+                      Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
     if poses is not None and len(poses):
         handles.append(Line2D([], [], color="#2a9d8f", label="robot path"))
     ax.legend(handles=handles, loc="best", fontsize=8)

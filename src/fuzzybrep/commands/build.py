@@ -118,7 +118,8 @@ def run(args) -> int:
     result.timings["fuzzify"] = time.perf_counter() - t_fuzzy
     nbytes = fuzzy.save(args.out, poses=poses, metadata=meta)
     if args.plot:
-        save_map_figure(args.plot, result.crisp, poses[:, :2], title=f"{Path(args.log).name}: crisp B-rep map")
+        save_map_figure(args.plot, result.crisp, poses[:, :2], fuzzy=fuzzy,
+                        title=f"{Path(args.log).name}: fuzzy B-rep map ({mf.describe()})")
     seconds = time.perf_counter() - t0
     crisp = result.crisp
     pieces = len(crisp.regions) - 1

@@ -482,6 +482,7 @@
         ctx.fillStyle = fillc; ctx.fill(); ctx.lineWidth = 1.5; ctx.strokeStyle = "#fff"; ctx.stroke();
       }
     }
+    drawScaleBar();
     const snap = snapshot.canvas;
     if (snap.width !== canvas.width || snap.height !== canvas.height) {
       snap.width = canvas.width; snap.height = canvas.height;
@@ -492,6 +493,35 @@
     redraws++;
     info.textContent = `${D.stats.vertices} vertices, ${D.stats.holes} holes · drawn in ${lastDrawMs.toFixed(0)} ms`;
     prefetch();
+  }
+
+  /* A round length (1, 2 or 5 × 10^k map units) near a fifth of the canvas width, as the SVG's. */
+  function scaleBarLength(extent) {
+    const target = Math.max(extent, 1e-300) / 5;
+    const k = Math.floor(Math.log10(target));
+    for (const m of [5, 2, 1]) if (m * 10 ** k <= target) return m * 10 ** k;
+    return 10 ** k;
+  }
+
+  /* The scale bar, bottom left, in CSS pixels: a length of the map at the current zoom. */
+  const scaleBar = { length: 0, pixels: 0 };
+  function drawScaleBar() {
+    const w = canvas.clientWidth, h = canvas.clientHeight;
+    const length = scaleBarLength(w / view.s), px = length * view.s;
+    const label = `${+length.toPrecision(6)} ${unit}`;
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    ctx.font = "12px system-ui, sans-serif";
+    const x0 = 14, y0 = h - 14, boxW = Math.max(px, ctx.measureText(label).width) + 16;
+    ctx.fillStyle = "rgba(255, 255, 255, 0.85)";
+    ctx.fillRect(x0 - 8, y0 - 26, boxW, 32);
+    ctx.strokeStyle = "#222"; ctx.lineWidth = 1.5; ctx.lineCap = "butt";
+    ctx.beginPath();
+    ctx.moveTo(x0, y0 - 6); ctx.lineTo(x0, y0); ctx.lineTo(x0 + px, y0); ctx.lineTo(x0 + px, y0 - 6);
+    ctx.stroke();
+    ctx.fillStyle = "#222"; ctx.textAlign = "center"; ctx.textBaseline = "alphabetic";
+    ctx.fillText(label, x0 + px / 2, y0 - 9);
+    ctx.textAlign = "start";
+    Object.assign(scaleBar, { length, pixels: px, x: x0, y: y0 });
   }
 
   const schedule = () => { if (!frame) frame = requestAnimationFrame(draw); };
@@ -592,8 +622,14 @@
   window.fuzzybrepViewer = {
     get alpha() { return alpha; },
     setAlpha, muAt, toScreen, toMap, draw,
+    /* zoom by a factor about the canvas centre, as the wheel does about the cursor */
+    zoom(f) {
+      const sx = canvas.clientWidth / 2, sy = canvas.clientHeight / 2, [x, y] = toMap(sx, sy);
+      view.s *= f; view.ox = sx - view.s * x; view.oy = sy + view.s * y;
+    },
     hulls: (a) => bandHulls(a, true).lists,
     get redraws() { return redraws; },
+    get scaleBar() { return Object.assign({}, scaleBar, { scale: view.s }); },
     get lastDrawMs() { return lastDrawMs; },
   };
 })();
