@@ -373,6 +373,7 @@ def test_disconnected_pieces_are_no_connection():
     with pytest.raises(NoConnectionError, match="different pieces") as e:
         plan(two_rooms, (1, 1), (8, 1))
     assert {e.value.start_piece, e.value.goal_piece} == {0, 1}
+    assert str(e.value).endswith("no path joins them")  # a polygon has no α: no hint to give
 
 
 DOOR = shapely.union_all([box(0, 0, 4, 4), box(4, 1.7, 5, 2.3), box(5, 0, 9, 4)])  # a 0.6 m door
@@ -388,10 +389,23 @@ def test_radius_closes_a_narrow_door():
 def test_support_closes_a_door_the_crisp_map_leaves_open():
     # the door's corners move 0.5 along their bisectors, its walls 0.5·sin 45° = 0.35 each
     fz = fuzzify(BRepMap.from_shapely(DOOR), tme=0.5)
-    with pytest.raises(NoConnectionError, match="α = 0"):
+    with pytest.raises(NoConnectionError, match="α = 0") as e:
         plan(fz, (1, 1), (8, 1))
+    # the message says at which α they are joined (issue 20: it gave no hint): the walls close
+    # the door below α = 1/7 (0.7·(1 − α) > 0.6)
+    assert str(e.value).endswith("; at α = 0.25 (radius 0) they are joined")
     p = plan(fz, (1, 1), (8, 1), alpha=0.9)
     assert_safe(p, fz.alpha_cut(0.9).inner)
+    # with a radius: the higher α and the smaller radius it names both plan, the steps before do not
+    with pytest.raises(NoConnectionError) as e:
+        plan(fz, (1, 1), (8, 1), alpha=0.25, radius=0.2)
+    m = re.search(r"at α = ([0-9.]+) \(radius 0.2\) they are joined and at radius ([0-9.]+) \(α = 0.25\)", str(e.value))
+    assert m, str(e.value)
+    a, r = float(m.group(1)), float(m.group(2))
+    assert plan(fz, (1, 1), (8, 1), alpha=a, radius=0.2).length > 7
+    assert plan(fz, (1, 1), (8, 1), alpha=0.25, radius=r).length > 7
+    with pytest.raises(NoConnectionError):
+        plan(fz, (1, 1), (8, 1), alpha=a - 0.25, radius=0.2)
 
 
 def test_bad_arguments_are_value_errors():

@@ -258,7 +258,7 @@ class Planner:
             raise NoConnectionError(
                 f"start and goal lie in different pieces of the safe region{self._where()} (pieces {ps + 1} and "
                 f"{pg + 1} of {len(self.pieces)}, areas {self.pieces[ps].area:.3g} and {self.pieces[pg].area:.3g} "
-                f"{self.unit}²): no path joins them", ps, pg)
+                f"{self.unit}²): no path joins them{plan_diagnosis.connecting(self, s, g, planner)}", ps, pg)
         given = s, g
         s, g = self._into(s, ps), self._into(g, pg)
         if s is None or g is None:

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import shapely
 
-from ..errors import PointNotFreeError
+from ..errors import FuzzyBrepError, PointNotFreeError
 from .safe_region import QUAD_SEGS, RADIUS_FACTOR
 
 
@@ -166,3 +166,44 @@ def corner_crossings(fuzzy, p: np.ndarray, R: float) -> np.ndarray:
     ok &= (t0 <= 1) & (t1 >= 0)
     t = np.clip(t0, 0, 1)[ok]
     return v[ok] + t[:, None] * d[ok]
+
+
+#: what ``connecting`` tries when start and goal lie in different pieces: higher α at the same
+#: radius, smaller radii at the same α (fractions of the radius asked for)
+ALPHA_STEP = 0.25
+RADIUS_FRACTIONS = (0.75, 0.5, 0.25, 0.0)
+
+
+def connecting(pl, s: np.ndarray, g: np.ndarray, planner) -> str:
+    """A hint for a NoConnectionError: the nearest settings, trying α in steps of ALPHA_STEP
+    above the planner's (same radius) and the radius cut to RADIUS_FRACTIONS of its own (same α),
+    at which start and goal lie in one piece of the safe region; "" if none does or the planner
+    has no fuzzy map. ``planner(fuzzy, α, radius, method)`` makes the planners (``plan.planner``,
+    which keeps them with the map: a plan at the hinted setting reuses its α-cut and shrink)."""
+    fuzzy = pl.fuzzy
+    if fuzzy is None:
+        return ""
+
+    def joined(alpha, radius) -> bool:
+        try:
+            other = planner(fuzzy, alpha, radius, pl.method)
+            return other.piece(s, "start") == other.piece(g, "goal")
+        except FuzzyBrepError:
+            return False
+
+    a0 = pl.alpha or 0.0
+    hints = []
+    for a in np.arange(a0 + ALPHA_STEP, 1.0 + 1e-9, ALPHA_STEP):
+        a = float(min(1.0, round(a, 6)))
+        if joined(a, pl.radius):
+            hints.append(f"at α = {a:g} (radius {pl.radius:g}) they are joined")
+            break
+    if pl.radius > 0:
+        for f in RADIUS_FRACTIONS:
+            if joined(a0, pl.radius * f):
+                hints.append(f"at radius {pl.radius * f:g} (α = {a0:g}) they are joined")
+                break
+    if not hints:
+        return (f"; neither a higher α (in steps of {ALPHA_STEP:g}) nor a smaller radius joins them"
+                if pl.radius > 0 or a0 < 1 else "")
+    return "; " + " and ".join(hints)
