@@ -38,12 +38,12 @@ LOGS = {"intel": "carmen/intel-corrected.log.gz", "aces": "carmen/aces-corrected
 
 
 #: where ``datasets`` looks, in order, for a folder holding carmen/ (said when it finds none)
-SEARCHED = "$FUZZYBREP_DATASETS, ../shared/datasets beside the checkout, /work/shared/datasets"
+SEARCHED = "$FUZZYBREP_DATASETS, ../shared/datasets beside the checkout"
 
 
 def datasets() -> Path | None:
     here = Path(__file__).resolve().parents[1]
-    for c in (os.environ.get("FUZZYBREP_DATASETS"), here.parent / "shared" / "datasets", "/work/shared/datasets"):
+    for c in (os.environ.get("FUZZYBREP_DATASETS"), here.parent / "shared" / "datasets"):
         if c and (Path(c) / "carmen").is_dir():
             return Path(c)
     return None
@@ -142,7 +142,7 @@ def example(d: Path, log: str = "intel") -> tuple[str, str]:
             if cli(["grid", str(d / LOGS[log]), "--out", tmp]) != 0:
                 raise RuntimeError(f"fuzzybrep grid {log} failed")
         printed = out.getvalue().replace(tmp, shown_out).replace(str(d / LOGS[log]), shown_log).rstrip()
-        yaml = (Path(tmp) / "map.yaml").read_text().rstrip()
+        yaml = (Path(tmp) / f"{Path(LOGS[log]).name.split('.')[0]}.yaml").read_text().rstrip()  # named after the log
     return f"$ fuzzybrep grid {shown_log} --out {shown_out}\n{printed}", yaml
 
 

@@ -4,7 +4,7 @@
                              [--docs docs]
 
 For each CARMEN log in ``DIR/carmen`` (by default the first of $FUZZYBREP_DATASETS,
-../shared/datasets beside the checkout and /work/shared/datasets that holds carmen/) it measures,
+../shared/datasets beside the checkout that holds carmen/) it measures,
 in one run:
 
 * speed: the full pipeline (read, beams, evidence, scan polygons, union, fuzzify), the median of
@@ -306,7 +306,7 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--datasets", help="folder holding carmen/ (default: the first of $FUZZYBREP_DATASETS, ../shared/datasets, /work/shared/datasets that holds carmen/)")
+    ap.add_argument("--datasets", help="folder holding carmen/ (default: the first of $FUZZYBREP_DATASETS, ../shared/datasets that holds carmen/)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(HERE / "results.md"))
     ap.add_argument("--readme", help="README whose benchmark block to replace with the report")

@@ -24,8 +24,9 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
 def datasets_dir() -> Path | None:
-    """The shared datasets: $FUZZYBREP_DATASETS, else ../shared/datasets beside the checkout."""
-    candidates = [os.environ.get("FUZZYBREP_DATASETS"), REPO.parent / "shared" / "datasets", "/work/shared/datasets"]
+    """The shared datasets: $FUZZYBREP_DATASETS, else ../shared/datasets beside the checkout (as the
+    README says; before, an absolute /work/shared/datasets was tried last, silently)."""
+    candidates = [os.environ.get("FUZZYBREP_DATASETS"), REPO.parent / "shared" / "datasets"]
     for c in candidates:
         if c and (Path(c) / "carmen").is_dir():
             return Path(c)

@@ -552,9 +552,9 @@ def test_tables_csv_checks_every_file_before_writing_any(tmp_path, capsys):
     m = tmp_path / "m.json"
     square_map(m)
     out = tmp_path / "t"
-    (out / "edges_principal.csv").mkdir(parents=True)
-    fails(capsys, ["tables", m, "--csv", out], "edges_principal.csv: cannot write: it is a folder")
-    assert [p.name for p in out.iterdir()] == ["edges_principal.csv"]
+    (out / "edges.csv").mkdir(parents=True)
+    fails(capsys, ["tables", m, "--csv", out], "edges.csv: cannot write: it is a folder")
+    assert [p.name for p in out.iterdir()] == ["edges.csv"]
 
 
 def test_map_file_that_is_not_utf8_is_not_valid_json(tmp_path, capsys):

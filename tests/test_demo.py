@@ -310,3 +310,21 @@ def test_report_is_strict_json(builtin_run):
 
     json.loads((out / "report.json").read_text(), parse_constant=refuse)
     assert not math.isnan(json.loads((out / "report.json").read_text())["maps"]["filtered"]["hausdorff_m"])
+
+
+def test_figure_headlines_name_and_score_the_cut_they_draw():
+    # issue 20: Figure 5.13's headline gave the sweep's scores whatever was drawn; fig_support's
+    # band was the frontier edges' orange, and its letters A-D were not explained
+    from matplotlib.colors import to_rgb
+
+    from fuzzybrep import figures, plot
+    from fuzzybrep.sim import demo
+    from fuzzybrep.sim.world import builtin_floor, builtin_route
+
+    r = demo.run_demo(builtin_floor(), builtin_route(), seed=0)
+    method = figures.figure_method(r)
+    assert method == demo.ALPHA_METHODS[0]
+    t = r.maps["filtered"].truth[method]
+    h = figures.floorplan_headline(r)
+    assert f"{method} α-cut" in h and f"{100 * t.support_coverage:.1f} %" in h and f"{t.unsafe_wall_length:.2f} m" in h
+    assert sum(abs(a - b) for a, b in zip(to_rgb(figures.BAND), to_rgb(plot.FRONTIER_EDGE))) > 0.3

@@ -325,3 +325,21 @@ def test_export_refuses_bad_options(floor_file, tmp_path, capsys):
     assert "plain file name" in capsys.readouterr().err
     assert run("export", floor_file, "--ros", tmp_path, "--resolution", "0.00001") == 2
     assert "too large" in capsys.readouterr().err
+
+
+def test_export_compact_says_when_snap_rounding_merged_holes(tmp_path, capsys):
+    # issue 20: 813 holes became 715 without a word; two holes 0.3 mm apart meet on the 1 mm grid
+    from fuzzybrep.fuzzy.map import fuzzify
+
+    g = shapely.Polygon([(0, 0), (5, 0), (5, 4), (0, 4)], [[(1, 1), (1, 2), (2, 2), (2, 1)],
+                                                          [(2.0003, 1), (2.0003, 2), (3, 2), (3, 1)]])
+    path = tmp_path / "m.json"
+    fuzzify(BRepMap.from_shapely(shapely.orient_polygons(g), "m"), tme=0.2).save(path)
+    assert run("export", path, "--compact", tmp_path / "m.fbrc") == 0
+    out = capsys.readouterr().out
+    assert "holes)" in out and "snap rounding onto the 0.001 m grid changed the map" in out
+    assert "2 -> 1 holes" in out or "2 -> 0 holes" in out, out
+    far = shapely.Polygon(g.exterior, [g.interiors[0], [(2.5, 1), (2.5, 2), (3, 2), (3, 1)]])
+    fuzzify(BRepMap.from_shapely(shapely.orient_polygons(far), "m"), tme=0.2).save(path)
+    assert run("export", path, "--compact", tmp_path / "m.fbrc") == 0
+    assert "(12 vertices, 2 holes)" in (out := capsys.readouterr().out) and "snap rounding" not in out

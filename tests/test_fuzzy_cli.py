@@ -41,7 +41,7 @@ def test_fuzzify_then_tables_reproduce_table_4_1(plan, tmp_path, capsys):
     out = tmp_path / "map.json"
     assert run("fuzzify", plan, "--unit", "mm", "--tme", 200, "--out", out) == 0
     assert "8 vertices" in capsys.readouterr().out
-    assert run("tables", out, "--csv", tmp_path / "t") == 0
+    assert run("tables", out, "--csv", tmp_path / "t", "--per-ring") == 0
     with open(tmp_path / "t" / "vertices_principal.csv") as fh:
         rows = list(csv.reader(fh))
     assert rows[0] == ["VERTEX", "X", "Y", "XOUT", "YOUT", "XIN", "YIN", "T", "U", "V", "W", "FM"]
@@ -65,11 +65,21 @@ def test_tables_with_holes_and_null_vertices(tmp_path, capsys):
     src.write_text(json.dumps(polygon(chamfered, HOLE)))
     out = tmp_path / "m.json"
     assert run("fuzzify", src, "--tme", 2.0, "--out", out) == 0
-    assert run("tables", out, "--csv", tmp_path / "t") == 0
-    assert sorted(p.name for p in (tmp_path / "t").iterdir()) == [
+    assert run("tables", out, "--csv", tmp_path / "p", "--per-ring") == 0
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == [
         "edges_hole_1.csv", "edges_principal.csv", "membership_functions.csv", "vertices_hole_1.csv",
         "vertices_principal.csv"]
-    rows = list(csv.reader(open(tmp_path / "t" / "vertices_principal.csv")))
+    # by default one file per table, every ring in it (issue 20: a file per ring and table)
+    assert run("tables", out, "--csv", tmp_path / "t") == 0
+    assert sorted(p.name for p in (tmp_path / "t").iterdir()) == ["edges.csv", "membership_functions.csv",
+                                                                   "vertices.csv"]
+    for table in ("vertices", "edges"):
+        together = list(csv.reader(open(tmp_path / "t" / f"{table}.csv")))
+        assert together[0][0] == "RING" and {r[0] for r in together[1:]} == {"principal", "hole_1"}
+        for ring in ("principal", "hole_1"):
+            alone = list(csv.reader(open(tmp_path / "p" / f"{table}_{ring}.csv")))
+            assert [r[1:] for r in together[1:] if r[0] == ring] == alone[1:] and together[0][1:] == alone[0]
+    rows = list(csv.reader(open(tmp_path / "p" / "vertices_principal.csv")))
     nulls = [r[0] for r in rows[1:] if r[5] == "" and r[6] == ""]
     assert len(nulls) == 2 and all(r[7] != "" for r in rows[1:])  # VIN NULL, line kept
     capsys.readouterr()

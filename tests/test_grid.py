@@ -351,6 +351,19 @@ def test_grid_command_writes_the_map_server_pair(tmp_path, capsys):
     assert (tmp_path / "out" / "room.pgm").is_file()
 
 
+def test_grid_names_its_files_after_the_log_as_export_after_the_map(tmp_path, capsys):
+    # issue 20: grid wrote map.pgm whatever the log, export NAME.pgm after the map file
+    from fuzzybrep.commands.grid import log_stem
+    from fuzzybrep.scans.csvscans import write_csv
+
+    write_csv(tmp_path / "room-2.csv.gz", box_scans([(0.0, 0.0, 0.0)]))
+    assert cli.main(["grid", str(tmp_path / "room-2.csv.gz"), "--out", str(tmp_path / "out")]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["room-2.pgm", "room-2.yaml"]
+    assert read_ros_map(tmp_path / "out" / "room-2.yaml").image_path.name == "room-2.pgm"
+    assert [log_stem(n) for n in ("intel-corrected.log.gz", "run.bag", "b/metadata.yaml", "x.txt", ".gz")] == [
+        "intel-corrected", "run", "b", "x", ".gz"]
+
+
 def test_grid_command_refuses_bag_options_for_other_formats(tmp_path, capsys):
     from fuzzybrep.scans.csvscans import write_csv
 

@@ -293,7 +293,7 @@ def test_build_and_grid_commands_read_bags(tmp_path, scans, capsys):
     assert read_map(tmp_path / "m.json").crisp.area > 30
     assert cli.main(["grid", str(path), "--out", str(tmp_path / "g"), "--odom-topic", "/odom"]) == 0
     assert "poses from odometry /odom" in capsys.readouterr().out
-    assert (tmp_path / "g" / "map.pgm").is_file() and (tmp_path / "g" / "map.yaml").is_file()
+    assert (tmp_path / "g" / "room.pgm").is_file() and (tmp_path / "g" / "room.yaml").is_file()  # the bag's name
 
 
 def test_build_and_evaluate_say_where_the_poses_came_from(tmp_path, scans, capsys):

@@ -418,3 +418,22 @@ def test_simulate_checks_every_output_before_writing_any(tmp_path, capsys):
                      "--world-out", str(tmp_path)]) == 2
     assert f"{tmp_path}: cannot write: it is a folder" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_simulated_scans_written_as_csv_are_read_by_build(tmp_path, monkeypatch, capsys):
+    # issue 20: `simulate --out sim.npz` could not be read by build; a .csv is CSV scans at the
+    # odometry poses (what the robot knows), which build reads, and an .npz given to build says so
+    monkeypatch.setattr(cli, "COMMANDS", ["simulate", "build"])
+    scans, run = tmp_path / "sim.csv", tmp_path / "sim.npz"
+    assert cli.main(["simulate", "--seed", "1", "--out", str(scans)]) == 0
+    assert cli.main(["simulate", "--seed", "1", "--out", str(run)]) == 0
+    from fuzzybrep.scans.read import read_scans
+
+    read = read_scans(scans)
+    saved, _ = load_scans(run)
+    assert len(read) == len(saved) == 54
+    np.testing.assert_allclose([s.pose for s in read], [s.pose for s in saved], atol=1e-12)
+    assert cli.main(["build", str(scans), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert cli.main(["build", str(run), "--out", str(tmp_path / "n.json"), "--quiet"]) == 2
+    assert "write the scans with `fuzzybrep simulate --out SCANS.csv`" in capsys.readouterr().err

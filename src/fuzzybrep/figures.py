@@ -18,10 +18,10 @@ import os
 import numpy as np
 import shapely
 
-from .plot import FREE, OBSTACLE_EDGE, _agg, _save, draw_edges, fill_geometry
+from .plot import BAND, FREE, FRONTIER_EDGE, OBSTACLE_EDGE, _agg, _save, draw_edges, fill_geometry
 
 ALPHAS = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
-BAND = "#f4a261"
+# BAND: the amber of the SVG, the viewer and build --plot; it was #f4a261, the frontier edges' orange
 TRUE_WALL = "#222222"
 GLASS = "#2a9df4"
 MISSED = "#d62828"
@@ -96,6 +96,20 @@ def _legend_place(result) -> str:
     return "center" if result.world_source == "built-in" else "best"
 
 
+def figure_method(result) -> str:
+    """The α-cut method the support figures draw: the first the demo scored (``demo.ALPHA_METHODS``),
+    which their titles name: the figures say what they show, whichever method that is."""
+    return next(iter(result.maps["filtered"].support))
+
+
+def floorplan_headline(result) -> str:
+    """Figure 5.13's headline: the scores of the cut it draws (``figure_method``), not another's."""
+    method = figure_method(result)
+    t = result.maps["filtered"].truth[method]
+    return (f"Support of the map (α = 0, {method} α-cut) over the true floor plan: {100 * t.support_coverage:.1f} % of "
+            f"the seen wall inside it, {t.unsafe_wall_length:.2f} m of wall in the safe region (cf. thesis Figure 5.13)")
+
+
 def _padded(bounds, pad=1.0):
     x0, y0, x1, y1 = bounds
     return (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
@@ -144,7 +158,8 @@ def support(result, path: str | os.PathLike) -> None:
     from matplotlib.patches import Patch
 
     m = result.maps["filtered"]
-    cut = m.support["sweep"]
+    method = figure_method(result)
+    cut = m.support[method]
     box = _padded(cut.outer.bounds)
     fig, ax = plt.subplots(figsize=(12, 12 * (box[3] - box[1]) / (box[2] - box[0]) + 0.8))
     fill_geometry(ax, cut.inner, facecolor=FREE, edgecolor="none")
@@ -152,17 +167,21 @@ def support(result, path: str | os.PathLike) -> None:
     draw_edges(ax, m.fuzzy.crisp.rings, lw=0.4)
     stops = result.poses[::2]
     ax.plot(stops[:, 0], stops[:, 1], "o", color=ROUTE, ms=3)
+    sections = []
     if result.world_source == "built-in":
         for name, (x, y) in BUILTIN_SECTIONS.items():
             ax.text(x, y, name, fontsize=14, weight="bold", ha="center", va="center", color="#444444")
-    _frame(ax, box, f"Support of the fuzzy B-rep map (μ = 0), TME = {result.tme_mm:.1f} mm: {len(result.scans)} "
-                    f"scans over {result.route.length:.0f} m, {m.fuzzy.crisp.n_vertices} vertices, "
-                    f"{m.fuzzy.crisp.n_holes} holes (cf. thesis Figure 5.10)")
+        # what the letters are (issue 20: they were not said)
+        sections = [Line2D([], [], ls="", marker="$A$", color="#444444",
+                           label="A–D: the floor's passages, south, west, north, east (docs/simulator.md)")]
+    _frame(ax, box, f"Support of the fuzzy B-rep map (μ = 0, {method} α-cut), TME = {result.tme_mm:.1f} mm: "
+                    f"{len(result.scans)} scans over {result.route.length:.0f} m, {m.fuzzy.crisp.n_vertices} "
+                    f"vertices, {m.fuzzy.crisp.n_holes} holes (cf. thesis Figure 5.10)")
     ax.legend(handles=[Patch(color=BAND, label="support band (0 < μ; the boundary lies here)"),
                        Patch(color=FREE, label="inner region at α = 0 (safe free space)"),
                        Line2D([], [], color=OBSTACLE_EDGE, label="crisp boundary (μ = 1)"),
-                       Line2D([], [], color="#e07b39", label="crisp frontier edge"),
-                       Line2D([], [], marker="o", ls="", color=ROUTE, label="stops (pose the map used)")],
+                       Line2D([], [], color=FRONTIER_EDGE, label="crisp frontier edge"),
+                       Line2D([], [], marker="o", ls="", color=ROUTE, label="stops (pose the map used)"), *sections],
               loc=_legend_place(result), fontsize=9)
     _save(fig, path, DPI)
 
@@ -199,7 +218,8 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
     from matplotlib.patches import Patch, Rectangle
 
     m = result.maps["filtered"]
-    cut = m.support["sweep"]
+    method = figure_method(result)
+    cut = m.support[method]
     world = result.world
     missed = shapely.difference(result.seen, cut.band)
     unsafe = shapely.intersection(world.walls, cut.inner)
@@ -219,10 +239,7 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
         _frame(ax, box)
     axes[0].add_patch(Rectangle(
         (zoom[0], zoom[1]), zoom[2] - zoom[0], zoom[3] - zoom[1], fill=False, ls=":", lw=1.2, color="#555555"))
-    t = m.truth["sweep"]
-    axes[0].set_title(f"Support of the map (α = 0) over the true floor plan: {100 * t.support_coverage:.1f} % of the "
-                      f"seen wall inside it, {t.unsafe_wall_length:.2f} m of wall in the safe region "
-                      "(cf. thesis Figure 5.13)", fontsize=10)
+    axes[0].set_title(floorplan_headline(result), fontsize=10)
     axes[1].set_title("zoom (dotted box above)", fontsize=10)
     axes[0].legend(handles=[Patch(color="#eeeeee", label="true free space"),
                             Patch(color=BAND, alpha=0.75, label="support band of the map"),

@@ -16,14 +16,20 @@ from ..fuzzy.map import FuzzyBRepMap, fuzzify
 from ..fuzzy.membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
-def add_mf_arguments(parser: argparse.ArgumentParser, default_tme: float | None = None) -> None:
-    """--tme / --laser-error + --odometry-error, --mf, --frontier-mf (for fuzzify and build)."""
+def add_mf_arguments(parser: argparse.ArgumentParser, default_tme: float | None = None, unit: str | None = None) -> None:
+    """--tme / --laser-error + --odometry-error, --mf, --frontier-mf (for fuzzify and build).
+
+    ``unit``: the unit of the lengths, when the command has one (build is metric: "metres");
+    else they are in the map's unit."""
     g = parser.add_argument_group("sensor uncertainty (thesis 4.1.1)")
     dflt = f" (default {default_tme:g})" if default_tme is not None else ""
+    where = f"in {unit}" if unit else "in the map's unit"
     g.add_argument("--tme", type=float, default=None,
-                   help=f"total maximum error, in the map's unit{dflt}: the support ±TME of the membership function")
-    g.add_argument("--laser-error", type=float, default=None, help="laser range error; TME = |laser| + |odometry|")
-    g.add_argument("--odometry-error", type=float, default=None, help="odometry error (UMBmark); TME = |laser| + |odometry|")
+                   help=f"total maximum error, {where}{dflt}: the support ±TME of the membership function")
+    g.add_argument("--laser-error", type=float, default=None,
+                   help=f"laser range error, {where}; TME = |laser| + |odometry|")
+    g.add_argument("--odometry-error", type=float, default=None,
+                   help=f"odometry error (UMBmark), {where}; TME = |laser| + |odometry|")
     g.add_argument("--mf", default="triangular", metavar="SPEC",
                    help="membership function: triangular (default), triangular:in=A,out=B, A1:p=P, A4:p=P, "
                         "A2:p=P,truncate, A3:p=P,truncate; a missing TME comes from --tme")

@@ -44,7 +44,7 @@ def add_arguments(p) -> None:
     p.add_argument("--min-hole-area", type=non_negative, help="drop holes of at most this area (map unit², default 0: only those simplification leaves without area)")
     p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default TME/4)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
-    add_mf_arguments(p, default_tme=DEFAULT_TME_M)
+    add_mf_arguments(p, default_tme=DEFAULT_TME_M, unit="metres (build reads metric logs)")
 
 
 def config_from_args(args):

@@ -15,7 +15,9 @@ HELP = "build a log-odds occupancy grid (the baseline) and write it as a ROS map
 def add_arguments(p) -> None:
     add_log_arguments(p)
     p.add_argument("--out", required=True, help="folder to write NAME.pgm and NAME.yaml into")
-    p.add_argument("--name", type=file_name, default="map", help="file name stem (default: map, giving map.pgm and map.yaml)")
+    p.add_argument("--name", type=file_name, default=None,
+                   help="file name stem (default: the log's name without its extensions, as export names its files "
+                        "after the map's: intel-corrected.log.gz gives intel-corrected.pgm and .yaml)")
     p.add_argument("--resolution", type=positive, default=0.05, help="cell side in metres (default 0.05)")
     p.add_argument("--max-usable", type=positive, default=8.0,
                    help="longest range whose free space and hit are trusted; farther returns mark free space up to it (default 8)")
@@ -57,11 +59,24 @@ def check_grid_size(log, scans, resolution: float, max_usable: float, no_return_
                                         f"median scan position (is its range or pose corrupt, or the log not in metres?)")
 
 
+def log_stem(log) -> str:
+    """A log's name without its extensions: intel-corrected.log.gz -> intel-corrected, run.bag -> run,
+    a bag folder -> its name; "map" if nothing is left."""
+    path = Path(log)
+    name = path.parent.name if path.name == "metadata.yaml" else path.name  # a ROS 2 bag's folder
+    for ext in (".gz", ".log", ".clf", ".txt", ".csv", ".bag", ".db3", ".mcap", ".yaml"):
+        if name.lower().endswith(ext) and len(name) > len(ext):
+            name = name[: -len(ext)]
+    return name or "map"
+
+
 def run(args) -> int:
     from ..formats.files import check_outputs
     from ..formats.rosmap import write_grid
     from ..mapping.grid import occupancy_grid
 
+    if args.name is None:
+        args.name = log_stem(args.log)
     check_outputs(*(Path(args.out) / f"{args.name}.{ext}" for ext in ("yaml", "pgm")), inputs=(args.log,))
     t0 = time.perf_counter()
     scans, report = read_log(args)

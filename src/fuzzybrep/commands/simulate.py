@@ -32,7 +32,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="probability a beam reflects off glass (default %(default)g); 0 and 0: glass is a wall")
     p.add_argument("--seed", type=seed, default=0, help="random seed (default %(default)d)")
     g = p.add_argument_group("outputs")
-    g.add_argument("--out", metavar="SCANS.npz", help="write the scans, odometry and true poses (.npz)")
+    g.add_argument("--out", metavar="SCANS.csv",
+                   help="write the scans: .csv or .csv.gz as CSV scans at the odometry poses, which build, grid and "
+                        "evaluate read; .npz the whole run (scans, odometry and true poses) for Python "
+                        "(fuzzybrep.sim.simulate.load_scans)")
     g.add_argument("--world-out", metavar="FILE.geojson", help="write the world and route as GeoJSON")
     g.add_argument("--umbmark-out", metavar="RUNS.csv",
                    help="also simulate the 5 + 5 UMBmark square runs (4 m) with this robot; write them for `fuzzybrep umbmark`")
@@ -63,7 +66,12 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
     }
     if args.out:
-        save_run(args.out, sim)
+        if args.out.lower().endswith(".npz"):
+            save_run(args.out, sim)
+        else:
+            from ..scans.csvscans import write_csv
+
+            write_csv(args.out, sim.scans)  # the odometry poses: what the robot knows, as a real log has
         summary["out"] = args.out
     if args.world_out:
         world.write_geojson(args.world_out, route)

@@ -23,8 +23,11 @@ MF_HEADER = ["INDEX", "TYPE", "PARAMETERS", "SUPPORT_IN", "SUPPORT_OUT", "FORMUL
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
-    p.add_argument("--csv", metavar="DIR", help="write vertices_<ring>.csv, edges_<ring>.csv and "
-                                                "membership_functions.csv into DIR instead of printing")
+    p.add_argument("--csv", metavar="DIR", help="write vertices.csv and edges.csv (every ring, its name in the first "
+                                                "column RING) and membership_functions.csv into DIR instead of printing")
+    p.add_argument("--per-ring", action="store_true",
+                   help="--csv: one vertices_<ring>.csv and edges_<ring>.csv per ring instead (thousands of files "
+                        "for a real map)")
 
 
 def slug(name: str) -> str:
@@ -91,14 +94,23 @@ def run(args: argparse.Namespace) -> int:
             return "" if not np.isfinite(x) else repr(float(x))
 
         files = {}
-        for k, name in enumerate(names):
-            files[out / f"vertices_{slug(name)}.csv"] = _csv(VERTEX_HEADER, vertex_rows(fuzzy, k, num))
-            files[out / f"edges_{slug(name)}.csv"] = _csv(EDGE_HEADER, edge_rows(fuzzy, k, ""))
+        if args.per_ring:
+            for k, name in enumerate(names):
+                files[out / f"vertices_{slug(name)}.csv"] = _csv(VERTEX_HEADER, vertex_rows(fuzzy, k, num))
+                files[out / f"edges_{slug(name)}.csv"] = _csv(EDGE_HEADER, edge_rows(fuzzy, k, ""))
+        else:
+            # one file per table, the ring in the first column (issue 20: 1,629 files for belgioioso)
+            vertices, edges = [], []
+            for k, name in enumerate(names):
+                vertices += [[slug(name), *row] for row in vertex_rows(fuzzy, k, num)]
+                edges += [[slug(name), *row] for row in edge_rows(fuzzy, k, "")]
+            files[out / "vertices.csv"] = _csv(["RING", *VERTEX_HEADER], vertices)
+            files[out / "edges.csv"] = _csv(["RING", *EDGE_HEADER], edges)
         files[out / "membership_functions.csv"] = _csv(MF_HEADER, mf_rows(fuzzy, num))
         check_outputs(*files, inputs=(args.map,))  # all before any: a failure leaves no partial set of tables
         for path, data in files.items():
             write_atomic(path, data)
-        print(f"{out}: {2 * len(names) + 1} tables ({len(names)} rings)")
+        print(f"{out}: {len(files)} tables ({len(names)} rings)")
         return 0
 
     def num(x):

@@ -36,6 +36,11 @@ def read_scans(path: str | os.PathLike, fmt: str | None = None, report: ReadRepo
     fmt = fmt or detect_format(path)
     if not Path(path).exists():
         raise ScanFormatError(path, None, "no such file")
+    if fmt != "rosbag" and Path(path).suffix.lower() == ".npz" and first_bytes(Path(path))[:2] == b"PK":
+        # before: read as a CARMEN log, "no FLASER line" or worse
+        raise ScanFormatError(path, None, "a NumPy archive, such as `fuzzybrep simulate --out RUN.npz` writes "
+                                          "(scans, odometry and true poses): logs are read as CARMEN, CSV scans or "
+                                          "ROS bags; write the scans with `fuzzybrep simulate --out SCANS.csv`")
     if fmt == "carmen":
         from .carmen import read_carmen
 
