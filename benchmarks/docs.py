@@ -18,6 +18,8 @@ demo.md       demo:poses                seed 0's scan pose errors under each pos
 simulator.md  simulator:floor           the built-in floor's areas and lengths, the route's stops
               simulator:drift           odometry drift at the end of the route, per robot, seeds 0-4
 export.md     export:yaml, export:free-area   ``export --ros`` of the Intel map
+              export:classes, export:nav2     ``raster_classes.py``: free/occupied/unknown against the
+                                              grid, and the raster's areas against the map's, every log
 viewer.md     viewer:intel              the page's α-cut construction against alpha_cut on the Intel map
 
 Speed is given as ratios against a baseline timed in the same run; absolute seconds only where a
@@ -54,7 +56,7 @@ PAGES = {
     "fuzzy.md": ("fuzzy:alpha-cut", "fuzzy:exact-cut"),
     "demo.md": ("demo:poses", "demo:seeds", "demo:bridge", "demo:room"),
     "simulator.md": ("simulator:floor", "simulator:drift"),
-    "export.md": ("export:yaml", "export:free-area"),
+    "export.md": ("export:yaml", "export:classes", "export:free-area", "export:nav2"),
     "viewer.md": ("viewer:intel",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
@@ -267,7 +269,12 @@ def export_blocks(ctx: Context) -> dict[str, str]:
     free = r.free_area()
     area = (f"{stamp(False)}\n\nOn the Intel map at 0.05 m: {free:.2f} m² of free cells against the crisp map's "
             f"{crisp:.2f} m², {pct(abs(free - crisp) / crisp, 3)} apart.")
-    return {"export:yaml": f"```yaml\n{yaml}\n```", "export:free-area": area}
+    import raster_classes
+
+    rows = raster_classes.run(ctx.d, 0.05, maps={k: v for k, v in ctx.maps.items()})
+    return {"export:yaml": f"```yaml\n{yaml}\n```", "export:free-area": area,
+            "export:classes": f"{stamp(False)}\n\n{raster_classes.table(rows)}",
+            "export:nav2": f"{stamp(False)}\n\n{raster_classes.nav2_table(rows)}"}
 
 
 # ---------------------------------------------------------------------------------- viewer.md

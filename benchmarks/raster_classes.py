@@ -67,6 +67,13 @@ def compare(fz, scans, resolution: float = 0.05) -> dict:
     near_wall = ndimage.binary_dilation(ours["occupied"], iterations=max(1, int(round(DEEP / resolution))))
     deep = in_hole & ~near_wall
     hit_near = ndimage.binary_dilation(theirs["occupied"], iterations=1)
+    # the map's own areas (polygons) against the raster's cells, as --nav2 writes them
+    from fuzzybrep.formats.raster import occupied_region
+
+    box = r.extent().area
+    own = {"free": fz.crisp_geometry.area, "occupied": occupied_region(fz).area}
+    own["unknown"] = box - own["free"] - own["occupied"]
+    cells = {"free": r.free_area(), "occupied": r.occupied_area(), "unknown": r.unknown_area()}
     occ = ours["occupied"]
     return {
         "areas": {side: {k: float(m.sum() * cell) for k, m in d.items()} for side, d in (("fuzzy", ours), ("grid", theirs))},
@@ -78,6 +85,8 @@ def compare(fz, scans, resolution: float = 0.05) -> dict:
         "deep_cells": int(deep.sum()),
         "deep_unknown_ours": float((deep & ours["unknown"]).sum() / max(deep.sum(), 1)),
         "deep_unknown_grid": float((deep & theirs["unknown"]).sum() / max(deep.sum(), 1)),
+        "own": own,
+        "cells": cells,
     }
 
 
@@ -96,6 +105,18 @@ def table(rows: dict[str, dict]) -> str:
                      f"{100 * (1 - c['grid_occupied_in_ours'] - c['grid_occupied_in_free']):.1f} % "
                      f"| {100 * c['free_agree']:.1f} % | {c['deep_cells']} "
                      f"| {100 * c['deep_unknown_ours']:.1f} % / {100 * c['deep_unknown_grid']:.1f} % |")
+    return "\n".join(lines)
+
+
+def nav2_table(rows: dict[str, dict]) -> str:
+    """The raster's cells (what ``--nav2`` writes and map_server reads back) against the map's own areas."""
+    lines = ["| log | free m²: cells / map | occupied m²: cells / map | unknown m²: cells / map | largest difference |",
+             "|---|---:|---:|---:|---:|"]
+    for name, c in rows.items():
+        cells, own = c["cells"], c["own"]
+        worst = max(abs(cells[k] - own[k]) / own[k] for k in own if own[k] > 0)
+        lines.append(f"| {name} | {cells['free']:.1f} / {own['free']:.1f} | {cells['occupied']:.1f} / {own['occupied']:.1f} "
+                     f"| {cells['unknown']:.1f} / {own['unknown']:.1f} | {100 * worst:.2f} % |")
     return "\n".join(lines)
 
 
@@ -133,7 +154,8 @@ def main(argv=None) -> int:
     if d is None:
         print(f"no folder holding carmen/ in any of {SEARCHED}: set FUZZYBREP_DATASETS", file=sys.stderr)
         return 2
-    text = table(run(d, args.resolution, maps_dir=Path(args.maps) if args.maps else None))
+    rows = run(d, args.resolution, maps_dir=Path(args.maps) if args.maps else None)
+    text = table(rows) + "\n\n" + nav2_table(rows)
     print(text)
     if args.out:
         Path(args.out).write_text(text + "\n")
