@@ -278,6 +278,19 @@ def test_geojson_rings_follow_the_right_hand_rule(floor_file, tmp_path):
 # ------------------------------------------------------------------------- SVG
 
 
+def svg_polylines(d: str) -> list[np.ndarray]:
+    """The points of path data ``M x y l dx dy …[z]`` (what svg.path_data writes), one array a subpath."""
+    import re
+
+    out = []
+    for sub in d.split("M")[1:]:
+        head, _, rest = sub.rstrip("z").partition("l")
+        v = [float(t) for t in re.findall(r"-?[0-9]*\.?[0-9]+(?:e-?[0-9]+)?", head + " " + rest)]
+        xy = np.array(v).reshape(-1, 2)
+        out.append(np.cumsum(xy, axis=0))
+    return out
+
+
 def test_svg_is_valid_xml_in_map_units_with_y_flipped(floor, floor_file, tmp_path):
     out = tmp_path / "floor.svg"
     assert run("export", floor_file, "--svg", out, "--alpha", 0, "--alpha", 0.5, "--alpha", 1) == 0
@@ -296,14 +309,12 @@ def test_svg_is_valid_xml_in_map_units_with_y_flipped(floor, floor_file, tmp_pat
     assert [p.get("class") for p in groups["crisp"]] == ["crisp obstacle", "crisp frontier"]
     # the crisp outline, read back, is the map mirrored in y, to the millimetre
     d = groups["crisp"][0].get("d")
-    rings = [np.array([[float(v) for v in pt.split()] for pt in ring.strip("Z").split("L")])
-             for ring in d.lstrip("M").split("M")]
+    rings = svg_polylines(d)
     poly = shapely.Polygon(rings[0] * [1, -1], [r * [1, -1] for r in rings[1:]])
     assert poly.area == pytest.approx(floor.crisp_geometry.area, rel=1e-4)
     assert poly.symmetric_difference(floor.crisp_geometry).area < 1e-3 * poly.area  # the map, not its mirror image
     # the frontier strokes are the crisp map's frontier edges
-    strokes = [np.array([[float(v) for v in pt.split()] for pt in s.split("L")]) * [1, -1]
-               for s in groups["crisp"][1].get("d").lstrip("M").split("M")]
+    strokes = [p * [1, -1] for p in svg_polylines(groups["crisp"][1].get("d"))]
     frontier = [r.vertices[[i, (i + 1) % len(r)]] for r in floor.crisp.rings for i in np.flatnonzero(r.kinds == FRONTIER)]
     assert len(strokes) == len(frontier)
     for s, f in zip(strokes, frontier):

@@ -178,6 +178,9 @@ def run(args: argparse.Namespace) -> int:
     if args.svg:
         n = write_atomic(args.svg, svg)
         print(f"{args.svg}: {n} bytes")
+        if n > 10_000_000:
+            print(f"note: {args.svg} is over 10 MB, which librsvg (and other readers built on libxml2) refuse to read; "
+                  f"fewer --alpha levels make it smaller ({len(cuts)} now)", file=sys.stderr)
     if args.compact:
         from ..formats.compact import QUANTUM
 

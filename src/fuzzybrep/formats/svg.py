@@ -70,11 +70,30 @@ def path_data(geom, decimals: int) -> str:
 
 
 def _polyline(xy: np.ndarray, decimals: int, close: bool) -> str:
-    # −0 would print as "-0": add 0.0 to make every zero positive
-    pts = np.round(np.column_stack((xy[:, 0], -xy[:, 1])), decimals) + 0.0
-    fmt = f"{{:.{decimals}f}}"
-    body = "L".join(f"{fmt.format(x)} {fmt.format(y)}" for x, y in pts)
-    return f"M{body}{'Z' if close else ''}"
+    """``M x y l dx dy dx dy …`` (``z`` if closed), y flipped: the first point absolute, the others
+    as steps between the rounded points, so that the path is exact on the quantum's grid and a
+    third shorter than absolute coordinates (librsvg refuses SVG files over 10 MB)."""
+    q = 10.0 ** -decimals
+    # integers of the quantum: the steps add up exactly; −0 would print as "-0"
+    pts = np.rint(np.column_stack((xy[:, 0], -xy[:, 1])) / q).astype(np.int64)
+    steps = np.diff(pts, axis=0)
+    fmt = lambda v: _number(v, decimals)  # noqa: E731
+    head = f"M{fmt(pts[0, 0])} {fmt(pts[0, 1])}"
+    if len(steps):
+        head += "l" + " ".join(f"{fmt(dx)} {fmt(dy)}" for dx, dy in steps.tolist())
+    return head + ("z" if close else "")
+
+
+def _number(k: int, decimals: int) -> str:
+    """k quanta (10^−decimals) as the shortest decimal text: 1234 at 3 decimals is 1.234, 50 is .05."""
+    if decimals == 0:
+        return str(k)
+    sign = "-" if k < 0 else ""
+    whole, frac = divmod(abs(k), 10 ** decimals)
+    frac_text = f"{frac:0{decimals}d}".rstrip("0")
+    if not frac_text:
+        return f"{sign}{whole}"
+    return f"{sign}{whole if whole else ''}.{frac_text}"
 
 
 def _frontier_paths(crisp: BRepMap, decimals: int) -> str:
