@@ -225,7 +225,9 @@ def test_export_says_how_many_vertices_the_file_holds(tmp_path, capsys):
     fuzzify(notched_map(), Triangular(0.19913)).save(m)
     assert cli.main(["export", str(m), "--compact", str(out)]) == 0
     crisp, _ = read_compact(out)
-    assert f"({crisp.n_vertices} vertices, {notched_map().n_vertices} before snap rounding)" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert f"({crisp.n_vertices} vertices, {crisp.n_holes} holes)" in out
+    assert f"changed the map: {notched_map().n_vertices} -> {crisp.n_vertices} vertices" in out
 
 
 def test_map_commands_read_the_compact_map(tmp_path, capsys):

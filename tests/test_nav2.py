@@ -1,7 +1,7 @@
 """export --nav2: the map, the keepout and speed masks and their parameters, loaded as Nav2 loads them.
 
 The reader (``_nav2``) implements nav2_map_server's loading rules, both the Humble-era and the 2025
-ones, independently of fuzzybrep's writer. On every shared log (FUZZYBREP_ALL_LOGS=1; the Intel lab
+ones, independently of fuzzybrep's writer. On every shared log (FUZZYBREP_BIG_LOGS=1; the Intel lab
 always) the free, occupied and unknown areas it reads back match the map's within 2 %.
 """
 
@@ -148,8 +148,8 @@ ALL = ["intel", "aces", "freiburg-079", "freiburg-campus", "fhw", "orebro"]
 
 
 @pytest.mark.reallog
-@pytest.mark.skipif(not os.environ.get("FUZZYBREP_ALL_LOGS"),
-                    reason="every shared log takes minutes (freiburg-campus alone 3): set FUZZYBREP_ALL_LOGS=1")
+@pytest.mark.skipif(not os.environ.get("FUZZYBREP_BIG_LOGS"),
+                    reason="every shared log takes minutes (freiburg-campus alone 3): set FUZZYBREP_BIG_LOGS=1")
 @pytest.mark.parametrize("name", ALL)
 def test_every_shared_log_nav2_areas_match_the_map(name, tmp_path):
     d = datasets_dir()
