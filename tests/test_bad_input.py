@@ -590,8 +590,13 @@ def test_no_command_writes_over_its_own_input(tmp_path, capsys, monkeypatch):
     # before: tables --csv replaced a map that sat in DIR under one of its table names
     t = tmp_path / "t"
     t.mkdir()
-    (t / "vertices_principal.csv").write_bytes(m.read_bytes())
-    fails(capsys, ["tables", t / "vertices_principal.csv", "--csv", t], "vertices_principal.csv: cannot write: it is the input")
+    (t / "vertices.csv").write_bytes(m.read_bytes())
+    fails(capsys, ["tables", t / "vertices.csv", "--csv", t], "vertices.csv: cannot write: it is the input")
+    assert (t / "vertices.csv").read_bytes() == m.read_bytes() and len(list(t.iterdir())) == 1
+    (t / "vertices.csv").unlink()
+    (t / "vertices_principal.csv").write_bytes(m.read_bytes())  # the old layout, --per-ring, likewise
+    fails(capsys, ["tables", t / "vertices_principal.csv", "--csv", t, "--per-ring"],
+          "vertices_principal.csv: cannot write: it is the input")
     assert (t / "vertices_principal.csv").read_bytes() == m.read_bytes() and len(list(t.iterdir())) == 1
     (t / "vertices_principal.csv").unlink()
     t.rmdir()

@@ -334,12 +334,15 @@ def test_svg_holds_any_unit_and_file_name_as_text(tmp_path, hostile):
     assert cli.main(["export", str(m), "--svg", str(tmp_path / "s.svg")]) == 0
     root = ET.parse(tmp_path / "s.svg").getroot()
     ns = "{http://www.w3.org/2000/svg}"
-    assert [e.tag for e in root] == [f"{ns}{t}" for t in ("title", "desc", "style", "rect", "g", "g", "g")]
+    assert [e.tag for e in root] == [f"{ns}{t}" for t in ("title", "desc", "style", "rect", "g", "g", "g", "g")]
     from fuzzybrep.formats.escape import xml_text
 
     shown = xml_text(hostile).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&")
     assert root.find(f"{ns}title").text == f"{shown}.json"
     assert f"unit {shown}, y up" in root.find(f"{ns}desc").text
+    # the legend (issue 20) names the unit too, as text, and its scale bar's length
+    legend = [t.text for t in root.iter(f"{ns}text")]
+    assert any(t.endswith(f"unit {shown}") for t in legend) and any(t.endswith(f" {shown}") for t in legend[-1:])
 
 
 @pytest.mark.parametrize("hostile", HOSTILE_STRINGS)
