@@ -1,0 +1,324 @@
+"""The conservative sweep: α-cuts that never promise more free space than the uncertainty allows,
+read in O(n) from lines stored per vertex and made proper by one winding-number union.
+
+The thesis's single normal vertex moves a corner d along its bisector, so the offset edges lie only
+d·sin(θ/2) from the crisp ones near a corner of angle θ: its inner cut reaches into the band where
+the boundary may lie. This sweep keeps the thesis's idea (every α-cut vertex is a stored vertex
+moved along a stored direction by the α-cut's distance, no offsetting algorithm run per α) with
+the directions chosen so that the cut is provably on the safe side of the exact one (the Extension
+principle, ``exact``):
+
+    inner(α) ⊆ crisp ⊖ d_in(α)        outer(α) ⊇ crisp ⊕ d_out(α)
+
+(⊖, ⊕: erosion and dilation by a disc whose radius is the distance of the nearest boundary's own
+membership function), for every map and α.
+
+**Rectangles and fans.** Orient every ring with the free space on its left (principal polygons
+counter-clockwise, holes clockwise). For edge e and a distance D, R_e(D) is the rectangle of
+height D on a chosen side of e. At a vertex where that side is the outside of the turn (the *arc
+side*: there the exact offset is an arc of radius D about the vertex), the fan F_V(D) is the
+polygon V, c_0, …, c_{k−1}, where the chain c_j = V + D·u_j circumscribes the arc: k tangent
+segments of equal angle ψ/k (ψ the turn), c_j at angle (j + ½)·ψ/k from the first edge's normal
+and radius D / cos(ψ/2k). c_0 lies on e's offset line and c_{k−1} on the next edge's, so the fan
+contains the disc sector the exact offset sweeps there. k = ⌈|ψ| / MAX_PIECE⌉: one point (the
+mitre, D/sin(θ/2) along the bisector) up to a 45° turn, two (a bevel tangent to the disc) up to
+90°, four for a spike. A fan's area beyond its sector is D²·k·(tan x − x), x = ψ/2k ≤ 22.5°:
+at most 5.5 % of the sector's area, the only place the band is wider than the exact one.
+
+**Lemma 1 (cover).** For a closed region F bounded by rings whose edges carry distances D_e, and a
+point p ∈ F with dist(p, ∂F) < D, let q be a nearest point of ∂F. The segment pq lies in F, so p
+is on the free side of the boundary at q. If q is inside edge e, p ∈ R_e(D) on its free side. If q
+is a vertex V, p − V lies in the vertex's normal cone, which is non-trivial only on the arc side,
+between the two edge normals; there p is in the sector of radius D, so in F_V(D). Hence
+{p ∈ F : dist(p, ∂F) < D} ⊆ ∪ R_e(D) ∪ ∪ F_V(D), all on the free side (the same holds outside F,
+with rectangles and fans on the other side).
+
+**Lemma 2 (winding).** Let C be the rings (as a 1-cycle; winding number w_C = 1 in the crisp free
+space, 0 outside, holes being clockwise) and L the *raw offset curve*: every edge's offset segment
+at height D on the free side, joined at each vertex by a detour V + D·n_e → V → V + D·n_h on the
+inside of the turn, or by the chain c_0 … c_{k−1} on the arc side. Then, as 1-chains,
+
+    L = C − Σ_e ∂R_e − Σ_V ∂F_V            (∂: counter-clockwise boundary)
+
+because ∂R_e = e + (up at its end) + (its top, backwards) + (down at its start), so C − Σ ∂R_e
+is every top joined by the detours, and the chain equals the detour minus the fan's boundary (the
+chain turns clockwise round V on the arc side). So w_L(x) = w_C(x) − #{rectangles and fans ∋ x}
+and the positive-winding region {w_L > 0} is exactly F − ∪R_e − ∪F_V. On the other side the same
+curve with +: w = w_C + #{…}, and {w > 0} = F ∪ ∪R_e ∪ ∪F_V.
+
+Together: {w_L > 0} ⊆ F ⊖ D (Lemma 1; the crisp region minus more than the exact band), and the
+outer region ⊇ F ⊕ D. Only fans add area beyond the exact band, so the band is at most 5.5 %
+(of the fans' share of it) wider. The union with the *positive* fill rule (Clipper2 through
+``pyclipr``; any winding-number overlay does) is the proper-polygon step of thesis 4.1.2: it
+removes exactly what folded or self-intersected (inverted loops have w ≤ 0; narrow corridors,
+where the walls' rectangles overlap, go; a spike's tip that the offset passes over goes) and
+adds nothing, for every ring and every map, however the rings interact, since w counts every
+rectangle of every ring.
+
+**Mitres inside the turn.** A detour costs three points. Where the turn is at most 90° and both
+edges are at least the support long, the detour is replaced by the apex A where the two offset
+lines meet (one point): w changes by ±1 in the kite V, V + D·n_e, A, V + D·n_h (+ on the free
+side, − on the other), and the kite lies in both R_e and R_h (its corners are at most D from V
+along each edge and at most D above it). A point in the kites of k corners of a ring, not all of
+its corners, lies in the rectangles of at least k + 1 of its edges, so on the free side w ≤
+1 − (k + 1) + k ≤ 0 stays so, and on the other side w ≥ (k + 1) − k > 0 stays so: {w > 0} does
+not change. No point lies in every kite of a ring wider than 2√2 times the distance (a kite is
+within √2·D of its corner), so mitres are used only on such rings (a small hole that the offset
+swallows whole keeps its detours: with mitres at all four corners of a square of side D, its
+rectangles and kites cancel exactly).
+
+**Several distances.** Lemma 1 needs the distance of the nearest boundary, and with different
+functions the band of one edge can reach past a nearer boundary whose own distance is smaller (a
+wide band behind a thin wall), or a d_in band can meet a d_out one (sided functions, in another
+piece of explored space). So the O(n) raw curve above is used only when one symmetric function
+serves every vertex (``uniform``: every map fuzzybrep builds, frontiers included, unless
+``--frontier-mf`` or ``--mf`` gives sided or several functions). Otherwise every edge gets its own
+*stadium* S_e: the segment's buffer by r_e = the largest distance of its two vertices (inward and
+outward), circumscribed (straight sides at ±r_e, each cap a chain of 4 tangent segments). The
+exact band is the union over half-edges of their buffers by their own vertex's distance on the
+side each point lies, so it lies in ∪S_e (a half-edge's cap at the edge's middle reaches at most
+r_e beyond it, into S_e's rectangle or its end cap); the cut is crisp − ∪S_e and crisp ∪ ∪S_e,
+with the same winding union (w = w_C ∓ #{S_e ∋ x}). Its band is wider than the exact one where a
+sided function's narrow side takes its wide distance.
+
+**Nesting and α = 1.** Every rectangle, fan and stadium grows with its distance, and d_in(α),
+d_out(α) do not increase with α, so the removed (added) set shrinks as α grows: the cuts nest.
+At α = 1 every distance is 0 and the cut is the crisp map itself (no union is run).
+
+**Rounding.** Clipper2 works on integers: coordinates are taken relative to the map's centre and
+scaled so that the map spans 2^40 units, and every distance is enlarged by ROUND_UNITS units
+(4·10^-12 of the map's size), which covers the rounding of the input points (half a unit) and of
+the union's intersection points (one unit), so the containment holds for the floats returned.
+
+Arrays in, arrays out; ``SafeLines`` is what is stored per vertex (thesis 4.1.2 keeps T, U, V, W),
+``cut_paths`` reads an α-cut's paths from it in O(n) and ``proper`` is the union.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+#: largest turn one tangent segment of a fan may cover (radians): 45°, so a fan is at most
+#: tan(22.5°)/22.5° − 1 = 5.5 % larger than its sector
+MAX_PIECE = np.pi / 4
+#: pieces of a stadium's half-circle cap (45° each), and of the disc put round an exact spike
+CAP_PIECES = 4
+#: the map spans this many integer units in the union
+SPAN_UNITS = 2.0**40
+#: every distance is enlarged by this many units, which covers the rounding to the integer grid
+ROUND_UNITS = 4.0
+#: a turn within this of ±180° (sin of the angle between the edges) is a spike of unknown side
+_SPIKE = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class SafeLines:
+    """Per-vertex directions of the conservative sweep, for every ring stacked (free space left).
+
+    For side ``s`` (0: the free side, what the inner cut offsets; 1: the other side, the outer
+    cut) the α-cut's path points are ``V[base[s]] + D · unit[s]``, cut into rings at
+    ``start[s]`` (one row of ``start`` per ring, plus extra loops for exact spikes after them).
+    ``order`` maps the stacked rings' vertices to the oriented ones (rings the caller gave the
+    other way round are reversed). ``reach``: the distance the mitres inside a turn were allowed
+    for (edges at least this long); a distance above it must not be read from these lines.
+    """
+
+    vertices: np.ndarray          # (N, 2) oriented vertices
+    base: tuple[np.ndarray, np.ndarray]
+    unit: tuple[np.ndarray, np.ndarray]
+    start: tuple[np.ndarray, np.ndarray]
+    reach: float
+
+    def points(self, side: int, d: float) -> np.ndarray:
+        """(M, 2) path points of one side at distance d: O(n) array arithmetic."""
+        return self.vertices[self.base[side]] + d * self.unit[side]
+
+
+def orient(vertices: np.ndarray, sizes: np.ndarray, free_left: np.ndarray) -> np.ndarray:
+    """Index array that reverses every ring whose free space is not on its left (``free_left``
+    per ring False), so that principal polygons run counter-clockwise and holes clockwise."""
+    sizes = np.asarray(sizes)
+    start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    idx = np.arange(int(sizes.sum()))
+    local = idx - np.repeat(start, sizes)
+    flip = ~np.repeat(np.asarray(free_left, bool), sizes)
+    return np.where(flip, np.repeat(start + sizes - 1, sizes) - local, idx)
+
+
+def _rot(u: np.ndarray, a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.column_stack((c * u[:, 0] - s * u[:, 1], s * u[:, 0] + c * u[:, 1]))
+
+
+def safe_lines(vertices: np.ndarray, sizes: np.ndarray, reach: float) -> SafeLines:
+    """The conservative sweep's per-vertex directions of rings oriented with the free space on
+    their left (``orient``), for distances up to ``reach``. O(n), once per map."""
+    v = np.asarray(vertices, dtype=np.float64)
+    sizes = np.asarray(sizes)
+    n = len(v)
+    start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    ring = np.repeat(np.arange(len(sizes)), sizes)
+    nxt = np.arange(n) + 1
+    nxt[start + sizes - 1] = start
+    prv = np.empty_like(nxt)
+    prv[nxt] = np.arange(n)
+    d = v[nxt] - v  # edge i: vertex i -> i + 1
+    length = np.hypot(d[:, 0], d[:, 1])
+    t = d / np.where(length > 0, length, 1.0)[:, None]
+    t_e, t_h = t[prv], t  # at vertex i: incoming edge i − 1, outgoing edge i
+    n_e = np.column_stack((-t_e[:, 1], t_e[:, 0]))  # left normals
+    n_h = np.column_stack((-t_h[:, 1], t_h[:, 0]))
+    cross = t_e[:, 0] * t_h[:, 1] - t_e[:, 1] * t_h[:, 0]
+    dot = np.einsum("ij,ij->i", t_e, t_h)
+    psi = np.arctan2(cross, dot)  # the turn, + to the left
+    spike = (np.abs(cross) <= _SPIKE) & (dot < 0)
+    # mitres inside a turn need both edges at least the distance long, and a ring wider than
+    # 2√2 times it, so that no point lies in the kites of all its corners (see the docstring)
+    span = float(np.ptp(v, axis=0).max()) if n else 0.0
+    slack = reach * (1 + 1e-6) + 1e-9 * span
+    extent = np.maximum(np.maximum.reduceat(v[:, 0], start) - np.minimum.reduceat(v[:, 0], start),
+                        np.maximum.reduceat(v[:, 1], start) - np.minimum.reduceat(v[:, 1], start))
+    long_enough = (np.minimum(length[prv], length) >= slack) & (extent > 3 * slack)[ring]
+    base, unit, starts = [], [], []
+    for sigma in (1.0, -1.0):  # free side (left), other side (right)
+        m_e, m_h = sigma * n_e, sigma * n_h
+        turn = sigma * psi  # > 0: this side is inside the turn
+        arc = (turn < 0) & ~spike
+        apex = ~arc & ~spike & ((np.abs(psi) <= np.pi / 2) & long_enough | (np.abs(psi) <= 1e-12))
+        detour = ~arc & ~apex
+        k = np.where(arc, np.maximum(1, np.ceil(np.abs(psi) / MAX_PIECE - 1e-9)).astype(np.int64), 0)
+        count = np.where(arc, k, np.where(apex, 1, 3))
+        first = np.concatenate(([0], np.cumsum(count)[:-1]))
+        total = int(count.sum())
+        owner = np.repeat(np.arange(n), count)
+        j = np.arange(total) - first[owner]
+        u = np.empty((total, 2))
+        # arc side: chain vertex j at angle (j + ½)·ψ/k from m_e, radius 1/cos(ψ/2k)
+        a = arc[owner]
+        ka = k[owner[a]]
+        half = psi[owner[a]] / (2 * ka)
+        u[a] = _rot(m_e[owner[a]], (2 * j[a] + 1) * half) / np.cos(half)[:, None]
+        # inside the turn: the apex of the two offset lines, or the detour through the vertex
+        p = apex[owner]
+        me, mh = m_e[owner[p]], m_h[owner[p]]
+        u[p] = (me + mh) / (1.0 + np.einsum("ij,ij->i", me, mh))[:, None]
+        q = detour[owner]
+        oq, jq = owner[q], j[q]
+        u[q] = np.where((jq == 0)[:, None], m_e[oq], np.where((jq == 1)[:, None], 0.0, m_h[oq]))
+        b = owner.copy()
+        ring_start = np.searchsorted(owner, start)
+        # exact spikes: a circumscribed disc round the vertex as a loop of its own, both sides
+        sp = np.flatnonzero(spike)
+        if len(sp):
+            ang = (np.arange(2 * CAP_PIECES) + 0.5) * (np.pi / CAP_PIECES)
+            disc = np.column_stack((np.cos(ang), np.sin(ang))) / np.cos(np.pi / (2 * CAP_PIECES))
+            if sigma > 0:  # the free side subtracts it: clockwise
+                disc = disc[::-1]
+            b = np.concatenate((b, np.repeat(sp, len(disc))))
+            u = np.vstack((u, np.tile(disc, (len(sp), 1))))
+            ring_start = np.concatenate((ring_start, total + len(disc) * np.arange(len(sp))))
+        base.append(b)
+        unit.append(u)
+        starts.append(ring_start)
+    for arr in (v, *base, *unit, *starts):
+        arr.setflags(write=False)
+    return SafeLines(v, tuple(base), tuple(unit), tuple(starts), float(reach))
+
+
+def stadiums(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every edge's circumscribed stadium at half-width r (N,) (edges with r = 0 left out):
+    (points (8m, 2), start of each stadium). Counter-clockwise."""
+    v = np.asarray(vertices, dtype=np.float64)
+    sizes = np.asarray(sizes)
+    n = len(v)
+    start = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    nxt = np.arange(n) + 1
+    nxt[start + sizes - 1] = start
+    keep = np.flatnonzero(r > 0)
+    a, b = v[keep], v[nxt[keep]]
+    t = b - a
+    t /= np.hypot(t[:, 0], t[:, 1])[:, None]
+    nrm = np.column_stack((-t[:, 1], t[:, 0]))
+    ang = (np.arange(CAP_PIECES) + 0.5) * (np.pi / CAP_PIECES)  # from −n through t to +n at b
+    c, s = np.cos(ang) / np.cos(np.pi / (2 * CAP_PIECES)), np.sin(ang) / np.cos(np.pi / (2 * CAP_PIECES))
+    # at b: −n·cos + t·sin ; at a: +n·cos − t·sin
+    rr = r[keep][:, None, None]
+    cap_b = b[:, None] + rr * (-nrm[:, None] * c[None, :, None] + t[:, None] * s[None, :, None])
+    cap_a = a[:, None] + rr * (nrm[:, None] * c[None, :, None] - t[:, None] * s[None, :, None])
+    pts = np.concatenate((cap_b, cap_a), axis=1).reshape(-1, 2)
+    return pts, 2 * CAP_PIECES * np.arange(len(keep))
+
+
+# ---------------------------------------------------------------------------------------------
+# The union: positive winding, Clipper2 (pyclipr)
+
+
+def cut_paths(lines: SafeLines, side: int, d: float, scale: float) -> list:
+    """The raw offset curve of one side at distance d (enlarged by the rounding margin), one
+    array per ring (and per spike disc): O(n) from the stored directions."""
+    pts = lines.points(side, d + ROUND_UNITS / scale)
+    return np.split(pts, lines.start[side][1:])
+
+
+def stadium_paths(rings: list, vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray, side: int,
+                  scale: float) -> list:
+    """The oriented crisp rings and every edge's stadium (clockwise for the free side, which
+    they are taken from; counter-clockwise for the other side, to which they are added)."""
+    r = np.where(r > 0, r + ROUND_UNITS / scale, 0.0)
+    pts, st = stadiums(vertices, sizes, r)
+    loops = np.split(pts, st[1:]) if len(st) else []
+    if side == 0:
+        loops = [q[::-1] for q in loops]
+    return list(rings) + loops
+
+
+def grid(vertices: np.ndarray) -> tuple[np.ndarray, float]:
+    """(centre, scale) of the integer grid the union works on: the map spans SPAN_UNITS."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    span = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-300))
+    return 0.5 * (lo + hi), SPAN_UNITS / span
+
+
+def proper(paths: list, centre: np.ndarray, scale: float) -> shapely.Geometry:
+    """The region of positive winding number of closed ``paths`` (arrays of points), as a valid
+    Polygon or MultiPolygon: one union with Clipper2's positive fill rule, then the tree of
+    outer rings and holes read into Shapely in one vectorised call."""
+    import pyclipr
+
+    c = pyclipr.Clipper()
+    c.scaleFactor = scale
+    c.addPaths([p - centre for p in paths if len(p) >= 3], pyclipr.Subject)
+    tree = c.execute2(pyclipr.Union, pyclipr.FillRule.Positive)
+    coords, ring_of, poly_of = [], [], []
+    stack = list(tree.children)
+    k = 0
+    while stack:  # outer rings; their children are holes, whose children are outer rings again
+        node = stack.pop()
+        rings = [node.polygon] + [h.polygon for h in node.children]
+        for r in rings:
+            coords.append(r)
+            ring_of.append(len(ring_of))
+            poly_of.append(k)
+        k += 1
+        for h in node.children:
+            stack.extend(h.children)
+    if not coords:
+        return shapely.MultiPolygon()
+    sizes = np.array([len(r) for r in coords])
+    xy = np.vstack(coords) + centre  # pyclipr returns them unscaled
+    # close every ring: its first point again after its last
+    ends = np.cumsum(sizes)
+    heads = ends - sizes
+    xy = np.insert(xy, ends, xy[heads], axis=0)
+    which = np.repeat(np.arange(len(sizes)), sizes + 1)
+    rings = shapely.linearrings(xy, indices=which)
+    polys = shapely.polygons(rings, indices=np.asarray(poly_of))
+    bad = ~shapely.is_valid(polys)
+    if bad.any():  # rings touching themselves at a point (Clipper's output may): GEOS's rule
+        polys[bad] = shapely.make_valid(polys[bad], method="structure", keep_collapsed=False)
+    parts = shapely.get_parts(polys)
+    parts = parts[shapely.get_type_id(parts) == 3]
+    return parts[0] if len(parts) == 1 else shapely.MultiPolygon(list(parts))
