@@ -192,8 +192,9 @@ def test_spikes_of_zero_width_are_covered_on_both_sides():
     """A needle doubling back on its own edge: which side its tip lies on is not known from the
     turn, so a circumscribed disc covers it on both sides."""
     v = np.array([(0, 0), (4, 0), (4, 2), (2, 2), (2, 5), (2, 2), (0, 2)], float)
-    lines = safe_sweep.safe_lines(v, np.array([len(v)]), 0.5)
-    assert len(lines.start[0]) == len(lines.start[1]) == 2  # the ring and one disc loop, each side
+    lines = safe_sweep.safe_lines(v, np.array([len(v)]))
+    for side in (0, 1):  # the ring and one disc loop, each side
+        assert len(safe_sweep.cut_paths(lines, side, 0.5, 1e6)) == 2
     fz = fuzzify(BRepMap((Region(Ring(v)),)), tme=0.5, validate=False)
     for a in (0.0, 0.5):
         check_cut(fz, fz.alpha_cut(a), 1e-8)

@@ -144,7 +144,7 @@ def support(result, path: str | os.PathLike) -> None:
     from matplotlib.patches import Patch
 
     m = result.maps["filtered"]
-    cut = m.support["sweep"]
+    cut = m.support["safe"]
     box = _padded(cut.outer.bounds)
     fig, ax = plt.subplots(figsize=(12, 12 * (box[3] - box[1]) / (box[2] - box[0]) + 0.8))
     fill_geometry(ax, cut.inner, facecolor=FREE, edgecolor="none")
@@ -199,7 +199,7 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
     from matplotlib.patches import Patch, Rectangle
 
     m = result.maps["filtered"]
-    cut = m.support["sweep"]
+    cut = m.support["safe"]
     world = result.world
     missed = shapely.difference(result.seen, cut.band)
     unsafe = shapely.intersection(world.walls, cut.inner)
@@ -219,7 +219,7 @@ def map_vs_floorplan(result, path: str | os.PathLike) -> None:
         _frame(ax, box)
     axes[0].add_patch(Rectangle(
         (zoom[0], zoom[1]), zoom[2] - zoom[0], zoom[3] - zoom[1], fill=False, ls=":", lw=1.2, color="#555555"))
-    t = m.truth["sweep"]
+    t = m.truth["safe"]
     axes[0].set_title(f"Support of the map (α = 0) over the true floor plan: {100 * t.support_coverage:.1f} % of the "
                       f"seen wall inside it, {t.unsafe_wall_length:.2f} m of wall in the safe region "
                       "(cf. thesis Figure 5.13)", fontsize=10)

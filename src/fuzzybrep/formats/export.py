@@ -172,7 +172,7 @@ def _boundary_cells(a: np.ndarray, b: np.ndarray, origin, resolution: float, sha
     return mask
 
 
-def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") -> MembershipRaster:
+def membership_raster(fuzzy, resolution: float = 0.05, method: str = "safe") -> MembershipRaster:
     """Rasterise a fuzzy B-rep map at cell centres: classes from the crisp map, μ from the fuzzy one.
 
     Inside/outside is one vectorised ``shapely.contains_xy`` over all cell centres; μ
@@ -184,8 +184,10 @@ def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") ->
         raise ValueError(f"resolution must be a positive number, got {resolution!r}")
     crisp = fuzzy.crisp
     table = fuzzy.table
-    reach_out = max(f.support_out for _, f in table)
-    reach = max(reach_out, max(f.support_in for _, f in table))
+    # the safe method's fans and stadium caps circumscribe their arcs: up to 1/cos(22.5°) further
+    wider = 1 / math.cos(math.pi / 8) if method == "safe" else 1.0
+    reach_out = max(f.support_out for _, f in table) * wider
+    reach = max(reach_out, max(f.support_in for _, f in table) * wider)
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
     pad = reach_out + resolution
     # the lattice of the resolution, so that maps of one building line up cell for cell

@@ -36,7 +36,7 @@ def prepare(fz) -> dict:
     out = {"V": V, "fm": fm, "sizes": s["sizes"], "start": s["start"], "next": s["next"], "function": f,
            "centre": centre, "scale": scale}
     if f is not None:
-        out["lines"] = S.safe_lines(V, s["sizes"], float(f.support_in))
+        out["lines"] = S.safe_lines(V, s["sizes"])
     segs = shapely.linestrings(np.stack((V, V[s["next"]]), axis=1))
     out["tree"] = shapely.STRtree(segs)
     return out
@@ -70,6 +70,17 @@ def safe_cut(fz, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
     rings = np.split(sf["V"], sf["start"][1:])
     return tuple(S.proper(S.stadium_paths(rings, sf["V"], sf["sizes"], r, side, scale), centre, scale)
                  for side in (0, 1))
+
+
+def corner_paths(fz) -> tuple[np.ndarray, np.ndarray] | None:
+    """(crisp end, α = 0 end) of the path every inner α-cut corner moves along (the free side's
+    raw-curve points, V and V + support·u), or None where the cut is not read from lines."""
+    sf = fz.safe
+    if sf["function"] is None:
+        return None
+    d = float(sf["function"].support_in)
+    v, u, _ = sf["lines"].select(0, d)
+    return v, v + d * u
 
 
 # ---------------------------------------------------------------------------------------------

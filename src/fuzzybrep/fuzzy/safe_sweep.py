@@ -55,15 +55,15 @@ where the walls' rectangles overlap, go; a spike's tip that the offset passes ov
 adds nothing, for every ring and every map, however the rings interact, since w counts every
 rectangle of every ring.
 
-**Mitres inside the turn.** A detour costs three points. Where the turn is at most 90° and both
-edges are at least the support long, the detour is replaced by the apex A where the two offset
+**Mitres inside the turn.** A detour costs three points (and two crossings for the union to
+resolve). Where the turn is at most 90° and both edges are at least D long, the detour is replaced by the apex A where the two offset
 lines meet (one point): w changes by ±1 in the kite V, V + D·n_e, A, V + D·n_h (+ on the free
 side, − on the other), and the kite lies in both R_e and R_h (its corners are at most D from V
 along each edge and at most D above it). A point in the kites of k corners of a ring, not all of
 its corners, lies in the rectangles of at least k + 1 of its edges, so on the free side w ≤
 1 − (k + 1) + k ≤ 0 stays so, and on the other side w ≥ (k + 1) − k > 0 stays so: {w > 0} does
-not change. No point lies in every kite of a ring wider than 2√2 times the distance (a kite is
-within √2·D of its corner), so mitres are used only on such rings (a small hole that the offset
+not change. No point lies in every kite of a ring wider than 2√2·D (a kite is within √2·D of its
+corner), so mitres are used only on rings at least 3·D across (a small hole that the offset
 swallows whole keeps its detours: with mitres at all four corners of a square of side D, its
 rectangles and kites cancel exactly).
 
@@ -119,22 +119,34 @@ class SafeLines:
     """Per-vertex directions of the conservative sweep, for every ring stacked (free space left).
 
     For side ``s`` (0: the free side, what the inner cut offsets; 1: the other side, the outer
-    cut) the α-cut's path points are ``V[base[s]] + D · unit[s]``, cut into rings at
-    ``start[s]`` (one row of ``start`` per ring, plus extra loops for exact spikes after them).
-    ``order`` maps the stacked rings' vertices to the oriented ones (rings the caller gave the
-    other way round are reversed). ``reach``: the distance the mitres inside a turn were allowed
-    for (edges at least this long); a distance above it must not be read from these lines.
+    cut) the α-cut's path points are ``V[base[s]] + D · unit[s]``, one path per ring (``ring[s]``
+    says whose; rings beyond the map's, ``ring[s] ≥ rings``, are the discs round exact spikes).
+    Inside a turn every vertex stores its detour (three points, the middle one flagged in
+    ``mid[s]``) and, in ``apex[s]``, the mitre that replaces it for distances up to
+    ``upto[s]`` (−1: never), so that an α-cut keeps the one point where it may.
     """
 
     vertices: np.ndarray          # (N, 2) oriented vertices
     base: tuple[np.ndarray, np.ndarray]
     unit: tuple[np.ndarray, np.ndarray]
-    start: tuple[np.ndarray, np.ndarray]
-    reach: float
+    ring: tuple[np.ndarray, np.ndarray]
+    mid: tuple[np.ndarray, np.ndarray]
+    apex: tuple[np.ndarray, np.ndarray]
+    upto: tuple[np.ndarray, np.ndarray]
+    rings: int
 
-    def points(self, side: int, d: float) -> np.ndarray:
-        """(M, 2) path points of one side at distance d: O(n) array arithmetic."""
-        return self.vertices[self.base[side]] + d * self.unit[side]
+    def select(self, side: int, d: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(vertex of each point, its direction, its ring) of one side at distance d."""
+        b, u, r = self.base[side], self.unit[side], self.ring[side]
+        mitre = self.upto[side] >= d  # per point: its vertex may take the apex at this distance
+        keep = ~mitre | self.mid[side]
+        u = np.where((mitre & self.mid[side])[:, None], self.apex[side], u)
+        return self.vertices[b[keep]], u[keep], r[keep]
+
+    def points(self, side: int, d: float) -> tuple[np.ndarray, np.ndarray]:
+        """(points (M, 2), ring of each) of one side at distance d: O(n) array arithmetic."""
+        v, u, r = self.select(side, d)
+        return v + d * u, r
 
 
 def orient(vertices: np.ndarray, sizes: np.ndarray, free_left: np.ndarray) -> np.ndarray:
@@ -153,9 +165,9 @@ def _rot(u: np.ndarray, a: np.ndarray) -> np.ndarray:
     return np.column_stack((c * u[:, 0] - s * u[:, 1], s * u[:, 0] + c * u[:, 1]))
 
 
-def safe_lines(vertices: np.ndarray, sizes: np.ndarray, reach: float) -> SafeLines:
+def safe_lines(vertices: np.ndarray, sizes: np.ndarray) -> SafeLines:
     """The conservative sweep's per-vertex directions of rings oriented with the free space on
-    their left (``orient``), for distances up to ``reach``. O(n), once per map."""
+    their left (``orient``). O(n), once per map."""
     v = np.asarray(vertices, dtype=np.float64)
     sizes = np.asarray(sizes)
     n = len(v)
@@ -175,41 +187,42 @@ def safe_lines(vertices: np.ndarray, sizes: np.ndarray, reach: float) -> SafeLin
     dot = np.einsum("ij,ij->i", t_e, t_h)
     psi = np.arctan2(cross, dot)  # the turn, + to the left
     spike = (np.abs(cross) <= _SPIKE) & (dot < 0)
-    # mitres inside a turn need both edges at least the distance long, and a ring wider than
-    # 2√2 times it, so that no point lies in the kites of all its corners (see the docstring)
+    # the mitre inside a turn of at most 90° stands in for the detour up to the distance that
+    # both edges are long and a third of the ring's extent (the docstring's kites), with a
+    # little slack for rounding
     span = float(np.ptp(v, axis=0).max()) if n else 0.0
-    slack = reach * (1 + 1e-6) + 1e-9 * span
     extent = np.maximum(np.maximum.reduceat(v[:, 0], start) - np.minimum.reduceat(v[:, 0], start),
                         np.maximum.reduceat(v[:, 1], start) - np.minimum.reduceat(v[:, 1], start))
-    long_enough = (np.minimum(length[prv], length) >= slack) & (extent > 3 * slack)[ring]
-    base, unit, starts = [], [], []
+    upto = (np.minimum(np.minimum(length[prv], length), extent[ring] / 3) - 1e-9 * span) / (1 + 1e-6)
+    upto = np.where(np.abs(psi) <= np.pi / 2, upto, -1.0)
+    base, unit, rings, mids, apexes, uptos = [], [], [], [], [], []
     for sigma in (1.0, -1.0):  # free side (left), other side (right)
         m_e, m_h = sigma * n_e, sigma * n_h
-        turn = sigma * psi  # > 0: this side is inside the turn
-        arc = (turn < 0) & ~spike
-        apex = ~arc & ~spike & ((np.abs(psi) <= np.pi / 2) & long_enough | (np.abs(psi) <= 1e-12))
-        detour = ~arc & ~apex
+        arc = (sigma * psi < 0) & ~spike  # this side is outside the turn
         k = np.where(arc, np.maximum(1, np.ceil(np.abs(psi) / MAX_PIECE - 1e-9)).astype(np.int64), 0)
-        count = np.where(arc, k, np.where(apex, 1, 3))
+        count = np.where(arc, k, 3)
         first = np.concatenate(([0], np.cumsum(count)[:-1]))
         total = int(count.sum())
         owner = np.repeat(np.arange(n), count)
         j = np.arange(total) - first[owner]
         u = np.empty((total, 2))
-        # arc side: chain vertex j at angle (j + ½)·ψ/k from m_e, radius 1/cos(ψ/2k)
+        # outside the turn: chain vertex j at angle (j + ½)·ψ/k from m_e, radius 1/cos(ψ/2k)
         a = arc[owner]
-        ka = k[owner[a]]
-        half = psi[owner[a]] / (2 * ka)
+        half = psi[owner[a]] / (2 * k[owner[a]])
         u[a] = _rot(m_e[owner[a]], (2 * j[a] + 1) * half) / np.cos(half)[:, None]
-        # inside the turn: the apex of the two offset lines, or the detour through the vertex
-        p = apex[owner]
-        me, mh = m_e[owner[p]], m_h[owner[p]]
-        u[p] = (me + mh) / (1.0 + np.einsum("ij,ij->i", me, mh))[:, None]
-        q = detour[owner]
+        # inside the turn: the detour V + n_e, V, V + n_h, and the apex of the offset lines
+        q = ~a
         oq, jq = owner[q], j[q]
         u[q] = np.where((jq == 0)[:, None], m_e[oq], np.where((jq == 1)[:, None], 0.0, m_h[oq]))
-        b = owner.copy()
-        ring_start = np.searchsorted(owner, start)
+        mid = q.copy()
+        mid[q] = jq == 1
+        apex = np.zeros((total, 2))
+        me, mh = m_e[owner[mid]], m_h[owner[mid]]
+        cos = np.einsum("ij,ij->i", me, mh)  # −1 only at spikes, which never take the apex
+        apex[mid] = (me + mh) / np.where(cos > -1.0, 1.0 + cos, 1.0)[:, None]
+        up = np.where(q & ~spike[owner], upto[owner], -1.0)
+        r = ring[owner]
+        b = owner
         # exact spikes: a circumscribed disc round the vertex as a loop of its own, both sides
         sp = np.flatnonzero(spike)
         if len(sp):
@@ -217,15 +230,24 @@ def safe_lines(vertices: np.ndarray, sizes: np.ndarray, reach: float) -> SafeLin
             disc = np.column_stack((np.cos(ang), np.sin(ang))) / np.cos(np.pi / (2 * CAP_PIECES))
             if sigma > 0:  # the free side subtracts it: clockwise
                 disc = disc[::-1]
+            m = len(disc) * len(sp)
             b = np.concatenate((b, np.repeat(sp, len(disc))))
             u = np.vstack((u, np.tile(disc, (len(sp), 1))))
-            ring_start = np.concatenate((ring_start, total + len(disc) * np.arange(len(sp))))
+            r = np.concatenate((r, len(sizes) + np.repeat(np.arange(len(sp)), len(disc))))
+            mid = np.concatenate((mid, np.zeros(m, bool)))
+            apex = np.vstack((apex, np.zeros((m, 2))))
+            up = np.concatenate((up, np.full(m, -1.0)))
         base.append(b)
         unit.append(u)
-        starts.append(ring_start)
-    for arr in (v, *base, *unit, *starts):
+        rings.append(r)
+        mids.append(mid)
+        apexes.append(apex)
+        uptos.append(up)
+    arrays = (v, *base, *unit, *rings, *mids, *apexes, *uptos)
+    for arr in arrays:
         arr.setflags(write=False)
-    return SafeLines(v, tuple(base), tuple(unit), tuple(starts), float(reach))
+    return SafeLines(v, tuple(base), tuple(unit), tuple(rings), tuple(mids), tuple(apexes), tuple(uptos),
+                     len(sizes))
 
 
 def stadiums(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -259,8 +281,8 @@ def stadiums(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray) -> tuple[np
 def cut_paths(lines: SafeLines, side: int, d: float, scale: float) -> list:
     """The raw offset curve of one side at distance d (enlarged by the rounding margin), one
     array per ring (and per spike disc): O(n) from the stored directions."""
-    pts = lines.points(side, d + ROUND_UNITS / scale)
-    return np.split(pts, lines.start[side][1:])
+    pts, ring = lines.points(side, d + ROUND_UNITS / scale)
+    return np.split(pts, np.flatnonzero(ring[1:] != ring[:-1]) + 1)
 
 
 def stadium_paths(rings: list, vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray, side: int,
@@ -284,38 +306,48 @@ def grid(vertices: np.ndarray) -> tuple[np.ndarray, float]:
 
 def proper(paths: list, centre: np.ndarray, scale: float) -> shapely.Geometry:
     """The region of positive winding number of closed ``paths`` (arrays of points), as a valid
-    Polygon or MultiPolygon: one union with Clipper2's positive fill rule, then the tree of
-    outer rings and holes read into Shapely in one vectorised call."""
+    Polygon or MultiPolygon: one union with Clipper2's positive fill rule (its flat output: outer
+    rings counter-clockwise, holes clockwise), every hole given to the smallest outer ring that
+    holds its first vertex, and all polygons made in one vectorised call."""
     import pyclipr
 
     c = pyclipr.Clipper()
-    c.scaleFactor = scale
-    c.addPaths([p - centre for p in paths if len(p) >= 3], pyclipr.Subject)
-    tree = c.execute2(pyclipr.Union, pyclipr.FillRule.Positive)
-    coords, ring_of, poly_of = [], [], []
-    stack = list(tree.children)
-    k = 0
-    while stack:  # outer rings; their children are holes, whose children are outer rings again
-        node = stack.pop()
-        rings = [node.polygon] + [h.polygon for h in node.children]
-        for r in rings:
-            coords.append(r)
-            ring_of.append(len(ring_of))
-            poly_of.append(k)
-        k += 1
-        for h in node.children:
-            stack.extend(h.children)
-    if not coords:
+    # coordinates of order one, and Clipper's own scale for the rest: pyclipr refuses a scale
+    # factor of 1e-38 (a map 1e50 across)
+    unit = SPAN_UNITS**0.5 / scale
+    c.scaleFactor = SPAN_UNITS**0.5
+    c.addPaths([(p - centre) / unit for p in paths if len(p) >= 3], pyclipr.Subject)
+    out = [r for r in c.execute(pyclipr.Union, pyclipr.FillRule.Positive) if len(r) >= 3]
+    if not out:
         return shapely.MultiPolygon()
-    sizes = np.array([len(r) for r in coords])
-    xy = np.vstack(coords) + centre  # pyclipr returns them unscaled
+    sizes = np.array([len(r) for r in out])
+    xy = np.vstack(out) * unit + centre  # pyclipr returns them unscaled
+    ring_of = np.repeat(np.arange(len(out)), sizes)
+    x, y = xy[:, 0], xy[:, 1]
+    heads = np.cumsum(sizes) - sizes
+    nxt = np.arange(len(xy)) + 1
+    nxt[heads + sizes - 1] = heads
+    area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, heads)
     # close every ring: its first point again after its last
     ends = np.cumsum(sizes)
-    heads = ends - sizes
-    xy = np.insert(xy, ends, xy[heads], axis=0)
-    which = np.repeat(np.arange(len(sizes)), sizes + 1)
-    rings = shapely.linearrings(xy, indices=which)
-    polys = shapely.polygons(rings, indices=np.asarray(poly_of))
+    closed = np.insert(xy, ends, xy[heads], axis=0)
+    rings = shapely.linearrings(closed, indices=np.repeat(np.arange(len(sizes)), sizes + 1))
+    outer = np.flatnonzero(area > 0)
+    hole = np.flatnonzero(area < 0)
+    owner = np.full(len(out), -1)
+    owner[outer] = outer
+    if len(hole):
+        shells = shapely.polygons(rings[outer])
+        h, o = shapely.STRtree(shells).query(shapely.points(xy[heads[hole]]), predicate="within")
+        # nested outer rings (an island in a hole): the smallest that holds it
+        best = np.full(len(hole), -1)
+        order = np.argsort(-area[outer[o]])  # largest first, so the smallest is written last
+        best[h[order]] = outer[o[order]]
+        owner[hole] = best
+    keep = owner >= 0
+    group = np.argsort(np.where(keep, owner, len(out)) * 2 + (area < 0), kind="stable")[: int(keep.sum())]
+    poly_index = np.searchsorted(np.unique(owner[group]), owner[group])
+    polys = shapely.polygons(rings[group], indices=poly_index)
     bad = ~shapely.is_valid(polys)
     if bad.any():  # rings touching themselves at a point (Clipper's output may): GEOS's rule
         polys[bad] = shapely.make_valid(polys[bad], method="structure", keep_collapsed=False)
