@@ -67,9 +67,7 @@ def safe_cut(fz, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
     r = edge_reach(fz, alpha)
     if not (r > 0).any():
         return crisp, crisp
-    rings = np.split(sf["V"], sf["start"][1:])
-    return tuple(S.proper(S.stadium_paths(rings, sf["V"], sf["sizes"], r, side, scale), centre, scale)
-                 for side in (0, 1))
+    return tuple(S.proper(S.stadium_paths(sf["V"], sf["sizes"], r, side, scale), centre, scale) for side in (0, 1))
 
 
 def corner_paths(fz) -> tuple[np.ndarray, np.ndarray] | None:

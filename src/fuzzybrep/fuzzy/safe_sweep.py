@@ -278,23 +278,25 @@ def stadiums(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray) -> tuple[np
 # The union: positive winding, Clipper2 (pyclipr)
 
 
-def cut_paths(lines: SafeLines, side: int, d: float, scale: float) -> list:
-    """The raw offset curve of one side at distance d (enlarged by the rounding margin), one
-    array per ring (and per spike disc): O(n) from the stored directions."""
+def cut_paths(lines: SafeLines, side: int, d: float, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """The raw offset curve of one side at distance d (enlarged by the rounding margin): all
+    points (M, 2) and where each ring's (and each spike disc's) path starts. O(n) from the
+    stored directions."""
     pts, ring = lines.points(side, d + ROUND_UNITS / scale)
-    return np.split(pts, np.flatnonzero(ring[1:] != ring[:-1]) + 1)
+    return pts, np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
 
 
-def stadium_paths(rings: list, vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray, side: int,
-                  scale: float) -> list:
+def stadium_paths(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray, side: int,
+                  scale: float) -> tuple[np.ndarray, np.ndarray]:
     """The oriented crisp rings and every edge's stadium (clockwise for the free side, which
-    they are taken from; counter-clockwise for the other side, to which they are added)."""
+    they are taken from; counter-clockwise for the other side, to which they are added), as
+    ``cut_paths`` gives them: all points and where each path starts."""
     r = np.where(r > 0, r + ROUND_UNITS / scale, 0.0)
     pts, st = stadiums(vertices, sizes, r)
-    loops = np.split(pts, st[1:]) if len(st) else []
-    if side == 0:
-        loops = [q[::-1] for q in loops]
-    return list(rings) + loops
+    if side == 0:  # every stadium backwards: 8 points each
+        pts = pts.reshape(-1, 2 * CAP_PIECES, 2)[:, ::-1].reshape(-1, 2)
+    ring_starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    return np.vstack((vertices, pts)), np.concatenate((ring_starts, len(vertices) + st))
 
 
 def grid(vertices: np.ndarray) -> tuple[np.ndarray, float]:
@@ -304,8 +306,9 @@ def grid(vertices: np.ndarray) -> tuple[np.ndarray, float]:
     return 0.5 * (lo + hi), SPAN_UNITS / span
 
 
-def proper(paths: list, centre: np.ndarray, scale: float) -> shapely.Geometry:
-    """The region of positive winding number of closed ``paths`` (arrays of points), as a valid
+def proper(paths: tuple[np.ndarray, np.ndarray], centre: np.ndarray, scale: float) -> shapely.Geometry:
+    """The region of positive winding number of closed ``paths`` (points, start of each path, as
+    ``cut_paths`` gives them), as a valid
     Polygon or MultiPolygon: one union with Clipper2's positive fill rule (its flat output: outer
     rings counter-clockwise, holes clockwise), every hole given to the smallest outer ring that
     holds its first vertex, and all polygons made in one vectorised call."""
@@ -316,7 +319,11 @@ def proper(paths: list, centre: np.ndarray, scale: float) -> shapely.Geometry:
     # factor of 1e-38 (a map 1e50 across)
     unit = SPAN_UNITS**0.5 / scale
     c.scaleFactor = SPAN_UNITS**0.5
-    c.addPaths([(p - centre) / unit for p in paths if len(p) >= 3], pyclipr.Subject)
+    pts, starts = paths
+    pts = (pts - centre) / unit
+    ends = np.r_[starts[1:], len(pts)]
+    big = np.flatnonzero(ends - starts >= 3).tolist()  # slices: np.split costs 7 µs a path
+    c.addPaths([pts[starts[k]:ends[k]] for k in big], pyclipr.Subject)
     out = [r for r in c.execute(pyclipr.Union, pyclipr.FillRule.Positive) if len(r) >= 3]
     if not out:
         return shapely.MultiPolygon()
@@ -328,29 +335,40 @@ def proper(paths: list, centre: np.ndarray, scale: float) -> shapely.Geometry:
     nxt = np.arange(len(xy)) + 1
     nxt[heads + sizes - 1] = heads
     area = 0.5 * np.add.reduceat(x * y[nxt] - x[nxt] * y, heads)
-    # close every ring: its first point again after its last
-    ends = np.cumsum(sizes)
-    closed = np.insert(xy, ends, xy[heads], axis=0)
-    rings = shapely.linearrings(closed, indices=np.repeat(np.arange(len(sizes)), sizes + 1))
+    rings = shapely.linearrings(xy, indices=ring_of)  # Shapely closes each ring
     outer = np.flatnonzero(area > 0)
     hole = np.flatnonzero(area < 0)
     owner = np.full(len(out), -1)
     owner[outer] = outer
     if len(hole):
         shells = shapely.polygons(rings[outer])
-        h, o = shapely.STRtree(shells).query(shapely.points(xy[heads[hole]]), predicate="within")
-        # nested outer rings (an island in a hole): the smallest that holds it
-        best = np.full(len(hole), -1)
-        order = np.argsort(-area[outer[o]])  # largest first, so the smallest is written last
-        best[h[order]] = outer[o[order]]
-        owner[hole] = best
+        # boxes first: a hole inside one outer ring's box only is that ring's (most are)
+        h, o = shapely.STRtree(shells).query(shapely.points(xy[heads[hole]]))
+        count = np.bincount(h, minlength=len(hole))
+        one = count[h] == 1
+        owner[hole[h[one]]] = outer[o[one]]
+        many = ~one
+        if many.any():
+            inside = shapely.within(shapely.points(xy[heads[hole[h[many]]]]), shells[o[many]])
+            hh, oo = h[many][inside], o[many][inside]
+            # nested outer rings (an island in a hole): the smallest that holds it
+            order = np.argsort(-area[outer[oo]])  # largest first, so the smallest is written last
+            owner[hole[hh[order]]] = outer[oo[order]]
     keep = owner >= 0
     group = np.argsort(np.where(keep, owner, len(out)) * 2 + (area < 0), kind="stable")[: int(keep.sum())]
-    poly_index = np.searchsorted(np.unique(owner[group]), owner[group])
-    polys = shapely.polygons(rings[group], indices=poly_index)
-    bad = ~shapely.is_valid(polys)
-    if bad.any():  # rings touching themselves at a point (Clipper's output may): GEOS's rule
+    owners = np.unique(owner[group])
+    polys = shapely.polygons(rings[group], indices=np.searchsorted(owners, owner[group]))
+    # Clipper2's output does not cross itself, but rings may touch at a vertex, which GEOS calls
+    # invalid within a ring (and along an edge between rings): such rings repeat a point. Only
+    # polygons with a repeated point are asked (GEOS's is_valid on every one cost as much as the
+    # union itself)
+    order = np.lexsort((y, x))
+    same = (x[order][1:] == x[order][:-1]) & (y[order][1:] == y[order][:-1])
+    if same.any():
+        twice = ring_of[np.concatenate((order[1:][same], order[:-1][same]))]
+        which = np.unique(np.searchsorted(owners, owner[twice[owner[twice] >= 0]]))
+        bad = which[~shapely.is_valid(polys[which])]
         polys[bad] = shapely.make_valid(polys[bad], method="structure", keep_collapsed=False)
-    parts = shapely.get_parts(polys)
-    parts = parts[shapely.get_type_id(parts) == 3]
-    return parts[0] if len(parts) == 1 else shapely.MultiPolygon(list(parts))
+        parts = shapely.get_parts(polys)
+        polys = parts[shapely.get_type_id(parts) == 3]
+    return polys[0] if len(polys) == 1 else shapely.multipolygons(polys)
