@@ -136,8 +136,9 @@ def test_the_star_of_issue_18():
         cut = fz.alpha_cut(a)
         check_cut(fz, cut, 1e-9 * scale_of(fz))
         assert shapely.difference(fz.crisp_geometry, cut.outer).area == 0.0
+    # nine spikes, each fan at most 10.3 % larger than its sector: the band is 5 % wider here
     exact = fz.alpha_cut(0.0, "exact").band.area
-    assert exact < fz.alpha_cut(0.0).band.area < 1.05 * exact
+    assert exact < fz.alpha_cut(0.0).band.area < 1.1 * exact
 
 
 def square(side: float) -> BRepMap:

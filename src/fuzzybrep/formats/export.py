@@ -184,8 +184,8 @@ def membership_raster(fuzzy, resolution: float = 0.05, method: str = "safe") -> 
         raise ValueError(f"resolution must be a positive number, got {resolution!r}")
     crisp = fuzzy.crisp
     table = fuzzy.table
-    # the safe method's fans and stadium caps circumscribe their arcs: up to 1/cos(22.5°) further
-    wider = 1 / math.cos(math.pi / 8) if method == "safe" else 1.0
+    # the safe method's fans and stadium caps circumscribe their arcs: their corners reach further
+    wider = fuzzy.safe["reach"] if method == "safe" else 1.0
     reach_out = max(f.support_out for _, f in table) * wider
     reach = max(reach_out, max(f.support_in for _, f in table) * wider)
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds

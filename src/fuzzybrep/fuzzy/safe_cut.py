@@ -34,7 +34,7 @@ def prepare(fz) -> dict:
         f = None
     centre, scale = S.grid(V)
     out = {"V": V, "fm": fm, "sizes": s["sizes"], "start": s["start"], "next": s["next"], "function": f,
-           "centre": centre, "scale": scale}
+           "centre": centre, "scale": scale, "reach": float(S.REACH)}
     if f is not None:
         out["lines"] = S.safe_lines(V, s["sizes"])
     segs = shapely.linestrings(np.stack((V, V[s["next"]]), axis=1))
@@ -113,7 +113,7 @@ def _mu_uniform(fz, p: np.ndarray, f) -> np.ndarray:
     sf = fz.safe
     V, nxt = sf["V"], sf["next"]
     inside = shapely.contains_xy(fz.crisp_geometry, p[:, 0], p[:, 1])
-    reach = float(f.support_in) / np.cos(S.MAX_PIECE / 2) * (1 + 1e-9)
+    reach = float(f.support_in) * S.REACH * (1 + 1e-9)
     pi, e = _pairs(fz, p, reach)
     delta = np.full(len(p), np.inf)
     if len(pi):

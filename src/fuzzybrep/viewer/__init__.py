@@ -193,7 +193,7 @@ def band_quads(fuzzy, alpha: float) -> tuple[np.ndarray, np.ndarray]:
 def safe_pieces(fuzzy, alpha: float) -> tuple[list, list]:
     """(free, obstacle): the convex polygons the page paints for the safe sweep's α-cut, as
     (k, 2) arrays: with one symmetric function every edge's rectangle of height d(α) on each side
-    and, on the outer side of every corner's turn, the fan of tangent segments (at most 45° each)
+    and, on the outer side of every corner's turn, the fan of tangent segments (at most 60° each)
     round the arc of radius d(α) (a disc round a spike, on both sides); otherwise every edge's
     circumscribed stadium, on both sides. The inner α-cut is the crisp free space minus the free
     pieces, the outer one plus the others: ``safe_sweep``'s rectangles and fans (Lemma 2), the

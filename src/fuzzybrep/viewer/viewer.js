@@ -11,7 +11,7 @@
  * The safe sweep (the default, D.method "safe"; fuzzy/safe_sweep.py) is drawn the same way: the
  * inner α-cut is the crisp free space minus every free-side piece, the outer one plus every other
  * piece, where a piece is an edge's rectangle of height d(α), or the fan that circumscribes the
- * arc of radius d(α) at a corner's outer side (tangent segments of at most 45°), or, with several
+ * arc of radius d(α) at a corner's outer side (tangent segments of at most 60°), or, with several
  * or sided functions, every edge's circumscribed stadium. Each piece is a convex polygon whose
  * corners are crisp vertices moved d(α) along directions computed once from the vertices.
  *
@@ -133,7 +133,7 @@
       for (const side of [1, -1]) { // the fan on the outer side of the turn
         if (!(side * o * psi < 0)) continue;
         const mex = -side * o * ey, mey = side * o * ex;
-        const k = Math.max(1, Math.ceil(Math.abs(psi) / (Math.PI / 4) - 1e-9)), half = psi / (2 * k);
+        const k = Math.max(1, Math.ceil(Math.abs(psi) / (Math.PI / 3) - 1e-9)), half = psi / (2 * k);
         const corners = [[i, 0, 0], [i, mex, mey]];
         for (let q = 0; q < k; q++) corners.push([i, ...rot(mex, mey, (2 * q + 1) * half, 1 / Math.cos(half))]);
         corners.push([i, ...rot(mex, mey, psi, 1)]);
@@ -365,8 +365,8 @@
   for (let i = 0; i < N; i++) {
     bx0 = Math.min(bx0, X[i]); bx1 = Math.max(bx1, X[i]);
     by0 = Math.min(by0, Y[i]); by1 = Math.max(by1, Y[i]);
-    // the safe sweep's fans and stadium caps reach up to 1/cos(22.5°) of the support
-    if (SAFE) reachV[i] /= Math.cos(Math.PI / 8);
+    // the safe sweep's fans and stadium caps reach up to 1/cos(30°) of the support
+    if (SAFE) reachV[i] /= Math.cos(Math.PI / 6);
     maxReach = Math.max(maxReach, reachV[i]);
   }
   const index = (function () {
