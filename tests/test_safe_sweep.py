@@ -208,3 +208,23 @@ def test_safe_is_the_default_and_sweep_means_the_thesis():
     assert fz.alpha_cut(0.0, "sweep").inner.equals(fz.alpha_cut(0.0, "thesis").inner)
     with pytest.raises(ValueError, match="safe, thesis, exact"):
         fz.alpha_cut(0.0, "bisector")
+
+
+def test_rings_the_offset_swallows_are_left_out_without_changing_the_cut():
+    """A hole under 2·d across is all band (the outer cut fills it), a piece of explored space
+    under 2·d across has no inner cut: their rings are left out of the union, which then gives
+    the same region (Lemma 1 covers what their rectangles did beyond them)."""
+    room = shapely.Polygon([(0, 0), (6, 0), (6, 4), (0, 4)], [[(1, 1), (1, 1.3), (1.3, 1.3), (1.3, 1)],
+                                                              [(3, 1), (3, 3), (5, 3), (5, 1)]])
+    islet = shapely.Polygon([(3.5, 1.5), (4.5, 1.5), (4.5, 1.8), (3.5, 1.8)])  # inside the big hole
+    fz = fuzzify(BRepMap.from_shapely(shapely.MultiPolygon([room, islet])), tme=0.4)
+    sf = fz.safe
+    for a in (0.0, 0.5):
+        d = float(sf["function"].d_in(a))
+        for side in (0, 1):
+            drop = safe_sweep.vanishing(sf["width"], sf["region"], sf["shell"], side, d)
+            assert drop.any()
+            kept = safe_sweep.proper(safe_sweep.cut_paths(sf["lines"], side, d, sf["scale"], drop), sf["centre"], sf["scale"])
+            whole = safe_sweep.proper(safe_sweep.cut_paths(sf["lines"], side, d, sf["scale"]), sf["centre"], sf["scale"])
+            assert shapely.symmetric_difference(kept, whole).area < 1e-9
+        check_cut(fz, fz.alpha_cut(a), 1e-8)

@@ -34,7 +34,10 @@ def prepare(fz) -> dict:
         f = None
     centre, scale = S.grid(V)
     out = {"V": V, "fm": fm, "sizes": s["sizes"], "start": s["start"], "next": s["next"], "function": f,
-           "centre": centre, "scale": scale, "reach": float(S.REACH)}
+           "centre": centre, "scale": scale, "reach": float(S.REACH), "shell": shell,
+           "region": np.repeat(np.arange(len(fz.crisp.regions)), [len(r.rings) for r in fz.crisp.regions]),
+           "width": np.minimum(np.maximum.reduceat(V[:, 0], s["start"]) - np.minimum.reduceat(V[:, 0], s["start"]),
+                               np.maximum.reduceat(V[:, 1], s["start"]) - np.minimum.reduceat(V[:, 1], s["start"]))}
     if f is not None:
         out["lines"] = S.safe_lines(V, s["sizes"])
     segs = shapely.linestrings(np.stack((V, V[s["next"]]), axis=1))
@@ -62,8 +65,9 @@ def safe_cut(fz, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
         if d == 0.0:
             return crisp, crisp
         lines = sf["lines"]
-        return (S.proper(S.cut_paths(lines, 0, d, scale), centre, scale),
-                S.proper(S.cut_paths(lines, 1, d, scale), centre, scale))
+        return tuple(S.proper(S.cut_paths(lines, side, d, scale, S.vanishing(sf["width"], sf["region"], sf["shell"],
+                                                                              side, d)), centre, scale)
+                     for side in (0, 1))
     r = edge_reach(fz, alpha)
     if not (r > 0).any():
         return crisp, crisp
@@ -142,7 +146,7 @@ def _mu_uniform(fz, p: np.ndarray, f) -> np.ndarray:
         w2 = np.sign(psi) * (q[:, 0] * mh[:, 1] - q[:, 1] * mh[:, 0])
         fan = arc & (w1 >= 0) & (w2 >= 0)
         if fan.any():
-            k = np.maximum(1, np.ceil(np.abs(psi[fan]) / S.MAX_PIECE - 1e-9))
+            k = S.fan_pieces(psi[fan]).astype(np.float64)
             j = np.arange(int(S.CAP_PIECES) + 1)[None, :]
             ang = np.minimum(j, k[:, None]) * (psi[fan] / k)[:, None]
             c, s_ = np.cos(ang), np.sin(ang)

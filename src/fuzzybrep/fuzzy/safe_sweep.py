@@ -17,18 +17,20 @@ membership function), for every map and α.
 counter-clockwise, holes clockwise). For edge e and a distance D, R_e(D) is the rectangle of
 height D on a chosen side of e. At a vertex where that side is the outside of the turn (the *arc
 side*: there the exact offset is an arc of radius D about the vertex), the fan F_V(D) is the
-polygon V, c_0, …, c_{k−1}, where the chain c_j = V + D·u_j circumscribes the arc: k tangent
+polygon V, V + D·n_e, c_0, …, c_{k−1}, V + D·n_h (n_e, n_h the two edges' normals on that side),
+where the chain c_j = V + D·u_j circumscribes the arc: k tangent
 segments of equal angle ψ/k (ψ the turn), c_j at angle (j + ½)·ψ/k from the first edge's normal
 and radius D / cos(ψ/2k). c_0 lies on e's offset line and c_{k−1} on the next edge's, so the fan
-contains the disc sector the exact offset sweeps there. k = ⌈|ψ| / MAX_PIECE⌉: one point (the
+contains the disc sector the exact offset sweeps there. k (``fan_pieces``): one point (the
 mitre, D/sin(θ/2) along the bisector) up to a 60° turn, two (a bevel tangent to the disc) up to
-120°, three for a spike. A fan's area beyond its sector is D²·k·(tan x − x), x = ψ/2k ≤ 30°: at
-most 10.3 % of the sector's area, the only place the band is wider than the exact one (on the real
-maps, where most corners turn by 90-170°, the band is 0.1-1.5 % wider; 45° pieces gave 0.1-0.8 %
-and a 10 % slower union, for the third more points).
+120°, four beyond: an even k above 60° puts a tangent point on the bisector, so the cut is exact
+at a sharp corner's tip (three pieces for a spike put a chain vertex there, 15 % of D further
+out). A fan's area beyond its sector is D²·k·(tan x − x), x = ψ/2k ≤ 30°: at most 10.3 % of the
+sector's area, the only place the band is wider than the exact one (on the real maps, where most
+corners turn by 90-170°, the band is about 1 % wider).
 
-**Lemma 1 (cover).** For a closed region F bounded by rings whose edges carry distances D_e, and a
-point p ∈ F with dist(p, ∂F) < D, let q be a nearest point of ∂F. The segment pq lies in F, so p
+**Lemma 1 (cover).** For a closed region F bounded by rings, one distance D, and a point p ∈ F
+with dist(p, ∂F) < D, let q be a nearest point of ∂F. The segment pq lies in F, so p
 is on the free side of the boundary at q. If q is inside edge e, p ∈ R_e(D) on its free side. If q
 is a vertex V, p − V lies in the vertex's normal cone, which is non-trivial only on the arc side,
 between the two edge normals; there p is in the sector of radius D, so in F_V(D). Hence
@@ -58,16 +60,24 @@ adds nothing, for every ring and every map, however the rings interact, since w 
 rectangle of every ring.
 
 **Mitres inside the turn.** A detour costs three points (and two crossings for the union to
-resolve). Where the turn is at most 90° and both edges are at least D long, the detour is replaced by the apex A where the two offset
-lines meet (one point): w changes by ±1 in the kite V, V + D·n_e, A, V + D·n_h (+ on the free
+resolve). Where the turn is at most 90°, both edges are at least D long and the ring is at least
+3·D across, the detour is replaced by the apex A where the two offset lines meet (one point),
+chosen per α (``SafeLines.upto``): w changes by ±1 in the kite V, V + D·n_e, A, V + D·n_h (+ on the free
 side, − on the other), and the kite lies in both R_e and R_h (its corners are at most D from V
 along each edge and at most D above it). A point in the kites of k corners of a ring, not all of
 its corners, lies in the rectangles of at least k + 1 of its edges, so on the free side w ≤
 1 − (k + 1) + k ≤ 0 stays so, and on the other side w ≥ (k + 1) − k > 0 stays so: {w > 0} does
 not change. No point lies in every kite of a ring wider than 2√2·D (a kite is within √2·D of its
-corner), so mitres are used only on rings at least 3·D across (a small hole that the offset
-swallows whole keeps its detours: with mitres at all four corners of a square of side D, its
-rectangles and kites cancel exactly).
+corner), hence the ring's 3·D (a small hole that the offset swallows whole keeps its detours:
+with mitres at all four corners of a square of side D, its rectangles and kites cancel exactly,
+a case the property tests found). Sharper turns keep the detour: there the kite reaches beyond
+both rectangles' common part, and two corners' kites may hold a point that only their own
+rectangles cover.
+
+**Rings the offset swallows.** A hole less than 2·D across (its box's smaller side) is all band,
+and so is a piece of explored space that narrow: their rings are left out of the union of the
+side that swallows them (``vanishing``), which gives the same region and spares the union their
+loops (the Örebro map's small obstacles at α = 0: GEOS buffer ÷ safe cut 4.7 to 7.2).
 
 **Several distances.** Lemma 1 needs the distance of the nearest boundary, and with different
 functions the band of one edge can reach past a nearer boundary whose own distance is smaller (a
@@ -106,6 +116,14 @@ import shapely
 #: largest turn one tangent segment of a fan may cover (radians): 60°, so a fan is at most
 #: tan(30°)/30° − 1 = 10.3 % larger than its sector
 MAX_PIECE = np.pi / 3
+def fan_pieces(psi: np.ndarray) -> np.ndarray:
+    """Tangent segments of the fan round a turn ψ (radians): 1 up to MAX_PIECE, then an even
+    number of at most MAX_PIECE each (2 up to 120°, 4 beyond), so that one touches the arc on
+    the corner's bisector."""
+    a = np.abs(np.asarray(psi, dtype=np.float64))
+    return np.where(a <= MAX_PIECE * (1 + 1e-9), 1, 2 * np.ceil(a / (2 * MAX_PIECE) - 1e-9)).astype(np.int64)
+
+
 #: how far beyond the distance a fan's or a stadium cap's corners reach: 1/cos(30°)
 REACH = 1 / np.cos(max(MAX_PIECE / 2, np.pi / (2 * 4)))
 #: pieces of a stadium's half-circle cap (45° each), and of the disc put round an exact spike
@@ -203,7 +221,7 @@ def safe_lines(vertices: np.ndarray, sizes: np.ndarray) -> SafeLines:
     for sigma in (1.0, -1.0):  # free side (left), other side (right)
         m_e, m_h = sigma * n_e, sigma * n_h
         arc = (sigma * psi < 0) & ~spike  # this side is outside the turn
-        k = np.where(arc, np.maximum(1, np.ceil(np.abs(psi) / MAX_PIECE - 1e-9)).astype(np.int64), 0)
+        k = np.where(arc, fan_pieces(psi), 0)
         count = np.where(arc, k, 3)
         first = np.concatenate(([0], np.cumsum(count)[:-1]))
         total = int(count.sum())
@@ -282,12 +300,33 @@ def stadiums(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray) -> tuple[np
 # The union: positive winding, Clipper2 (pyclipr)
 
 
-def cut_paths(lines: SafeLines, side: int, d: float, scale: float) -> tuple[np.ndarray, np.ndarray]:
+def cut_paths(lines: SafeLines, side: int, d: float, scale: float,
+              drop: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The raw offset curve of one side at distance d (enlarged by the rounding margin): all
     points (M, 2) and where each ring's (and each spike disc's) path starts. O(n) from the
-    stored directions."""
+    stored directions. ``drop``: rings (bool per ring) left out, as ones the offset swallows
+    whole (``vanishing``)."""
     pts, ring = lines.points(side, d + ROUND_UNITS / scale)
+    if drop is not None and drop.any():
+        keep = ~np.r_[drop, np.zeros(int(ring.max()) + 1 - len(drop), bool)][ring]  # spike discs stay
+        pts, ring = pts[keep], ring[keep]
     return pts, np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
+
+
+def vanishing(width: np.ndarray, region_of: np.ndarray, shell: np.ndarray, side: int, d: float) -> np.ndarray:
+    """Rings (bool per ring) whose part of one side's raw curve may be left out at distance d:
+    every point of a ring's polygon less than width/2 across (``width`` the smaller side of its
+    box) is nearer than d to its ring, so the offset into it swallows it whole. On the free side
+    (the inner cut) a region whose principal polygon is swallowed has no inner cut: all its rings
+    go (a point of another region near them is nearer still to its own region's boundary, which
+    its own rectangles cover, Lemma 1); on the other side (the outer cut) a swallowed hole is all
+    band: without its ring, the winding number inside it is its principal polygon's, 1."""
+    small = width < 2 * d
+    if side == 1:
+        return small & ~shell
+    gone = np.zeros(int(region_of.max()) + 1, bool)
+    gone[region_of[shell & small]] = True
+    return gone[region_of]
 
 
 def stadium_paths(vertices: np.ndarray, sizes: np.ndarray, r: np.ndarray, side: int,

@@ -236,7 +236,7 @@ def safe_pieces(fuzzy, alpha: float) -> tuple[list, list]:
             (free if to[k] else obstacle).append(rect[k])
         me = (side * own)[:, None] * np.column_stack((-te[:, 1], te[:, 0]))
         for k in np.flatnonzero((side * own * psi < 0) & ~spike):
-            n = max(1, int(np.ceil(abs(psi[k]) / S.MAX_PIECE - 1e-9)))
+            n = int(S.fan_pieces(psi[k]))
             half = psi[k] / (2 * n)
             ang = (2 * np.arange(n) + 1) * half
             c, sn = np.cos(ang), np.sin(ang)
