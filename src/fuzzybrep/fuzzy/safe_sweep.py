@@ -60,10 +60,10 @@ adds nothing, for every ring and every map, however the rings interact, since w 
 rectangle of every ring.
 
 **Mitres inside the turn.** A detour costs three points (and two crossings for the union to
-resolve). Where the turn is at most 90°, both edges are at least D long and the ring is at least
-3·D across, the detour is replaced by the apex A where the two offset lines meet (one point),
+resolve). Where the turn ψ is at most 90°, both edges are at least D·sin ψ long and the ring is
+at least 3·D across, the detour is replaced by the apex A where the two offset lines meet (one point),
 chosen per α (``SafeLines.upto``): w changes by ±1 in the kite V, V + D·n_e, A, V + D·n_h (+ on the free
-side, − on the other), and the kite lies in both R_e and R_h (its corners are at most D from V
+side, − on the other), and the kite lies in both R_e and R_h (its corners are at most D·sin ψ from V
 along each edge and at most D above it). A point in the kites of k corners of a ring, not all of
 its corners, lies in the rectangles of at least k + 1 of its edges, so on the free side w ≤
 1 − (k + 1) + k ≤ 0 stays so, and on the other side w ≥ (k + 1) − k > 0 stays so: {w > 0} does
@@ -215,7 +215,9 @@ def safe_lines(vertices: np.ndarray, sizes: np.ndarray) -> SafeLines:
     span = float(np.ptp(v, axis=0).max()) if n else 0.0
     extent = np.maximum(np.maximum.reduceat(v[:, 0], start) - np.minimum.reduceat(v[:, 0], start),
                         np.maximum.reduceat(v[:, 1], start) - np.minimum.reduceat(v[:, 1], start))
-    upto = (np.minimum(np.minimum(length[prv], length), extent[ring] / 3) - 1e-9 * span) / (1 + 1e-6)
+    # the kite reaches D·max(sin ψ, tan ψ/2) = D·sin ψ (ψ ≤ 90°) along each edge from the corner
+    reach = np.maximum(np.maximum(np.sin(np.abs(psi)), np.tan(np.abs(psi) / 2)), 1e-300)
+    upto = (np.minimum(np.minimum(length[prv], length) / reach, extent[ring] / 3) - 1e-9 * span) / (1 + 1e-6)
     upto = np.where(np.abs(psi) <= np.pi / 2, upto, -1.0)
     base, unit, rings, mids, apexes, uptos = [], [], [], [], [], []
     for sigma in (1.0, -1.0):  # free side (left), other side (right)
