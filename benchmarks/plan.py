@@ -54,7 +54,7 @@ def main(argv=None) -> int:
         for alpha in a.alpha or [0.0]:
             cut, t_cut = timed(lambda: fz.alpha_cut(alpha).inner)
             for radius in a.radius or [0.0, 0.2]:
-                pl = Planner(cut, radius, alpha=alpha, method="sweep", fuzzy=fz)
+                pl = Planner(cut, radius, alpha=alpha, method="safe", fuzzy=fz)
                 graph, t_graph = timed(lambda: pl.visibility)
                 pts = free_points(pl.largest_piece, 2 * a.pairs, np.random.default_rng(1))
                 ts = []

@@ -441,7 +441,7 @@ def test_absurdly_large_cell_or_tolerance_is_not_a_traceback(tmp_path, capsys):
     assert "cells at 1e+300 m" in capsys.readouterr().out
     assert cli.main(["export", str(m), "--ros", str(tmp_path / "r"), "--resolution", "1e300"]) == 0
     out = capsys.readouterr().out
-    assert "cells of 1e+300 m, μ by exact: free 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
+    assert "cells of 1e+300 m, μ by safe: free 0 m²" in out  # no cell is free: 0, not NaN (0 × inf)
 
 
 # ------------------------------------------------------------------------- scans that bound no free space
@@ -466,7 +466,7 @@ def test_grid_too_large_gives_its_size_in_few_digits(tmp_path, capsys):
     m = tmp_path / "m.json"
     square_map(m)
     err = fails(capsys, ["export", m, "--ros", tmp_path / "r", "--resolution", "1e-300"],
-                "m.yaml: a grid of 4.2e+300 × 4.2e+300 cells at 1e-300 m is too large (limit 40000000 cells)")
+                "m.yaml: a grid of 4.23e+300 × 4.23e+300 cells at 1e-300 m is too large (limit 40000000 cells)")
     assert len(err.replace(str(tmp_path), "")) < 160, err
 
 

@@ -155,7 +155,7 @@ def test_ros_pair_round_trips_through_standard_readers(floor, tmp_path):
 def test_export_command_ros_free_area_matches_the_crisp_map(floor, floor_file, tmp_path, capsys):
     assert run("export", floor_file, "--ros", tmp_path / "out", "--resolution", 0.02, "--name", "f") == 0
     out = capsys.readouterr().out
-    assert "free 34.62 m² (crisp map 34.62)" in out and "μ by exact" in out and "occupied" in out
+    assert "free 34.62 m² (crisp map 34.62)" in out and "μ by safe" in out and "occupied" in out
     m = read_ros_map(tmp_path / "out" / "f.yaml")
     free = np.count_nonzero(m.occupancy() == 0) * m.resolution ** 2
     assert free == pytest.approx(floor.crisp_geometry.area, rel=0.01)
@@ -206,7 +206,7 @@ def test_intel_ros_export_free_area_within_5_percent(built_map, tmp_path):
 
     from fuzzybrep.formats.raster import membership_raster as raster_of
 
-    r = raster_of(fuzzy, 0.05, "exact")
+    r = raster_of(fuzzy, 0.05, "safe")
     h, w = r.shape
     X, Y = np.meshgrid(r.origin[0] + (np.arange(w) + 0.5) * 0.05, r.origin[1] + (np.arange(h)[::-1] + 0.5) * 0.05)
     shells = shapely.union_all([shapely.Polygon(g.shell.vertices) for g in fuzzy.crisp.regions])
@@ -258,7 +258,7 @@ def test_geojson_levels_and_method_from_the_command_line(floor_file, tmp_path):
 def test_geojson_rings_follow_the_right_hand_rule(floor_file, tmp_path):
     """RFC 7946, 3.1.6: exterior rings counter-clockwise, holes clockwise, in every feature and
     for both α-cut methods (GEOS's buffers and overlays return them the other way round)."""
-    for method in ("sweep", "exact"):
+    for method in ("safe", "sweep", "exact"):
         for command in (("export", floor_file, "--geojson"), ("alpha-cut", floor_file, "--alpha", 0, "--out")):
             out = tmp_path / f"{method}.geojson"
             assert run(*command, out, "--method", method) == 0

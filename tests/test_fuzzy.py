@@ -179,7 +179,7 @@ def test_alpha_within_rounding_of_one_is_the_crisp_map():
 
 def test_square_alpha_cuts_match_the_bisector_construction():
     fz = fuzzify(square(10), tme=1.0)
-    c = fz.alpha_cut(0.0)
+    c = fz.alpha_cut(0.0, "thesis")
     s = 1 / math.sqrt(2)  # perpendicular offset of a 90° corner moved 1 along its bisector
     assert c.inner.area == pytest.approx((10 - 2 * s) ** 2)
     assert c.outer.area == pytest.approx((10 + 2 * s) ** 2)
@@ -225,7 +225,7 @@ def test_asymmetric_function_on_a_hole_offsets_each_side_by_its_support():
     r = math.sqrt(2)
     for alpha in (0.0, 0.5):
         d_in, d_out = (1 - alpha) * 0.5, (1 - alpha) * 1.5
-        cut = fz.alpha_cut(alpha)
+        cut = fz.alpha_cut(alpha, "thesis")
         assert cut.inner.area == pytest.approx((10 - r * d_in) ** 2 - (2 + r * d_out) ** 2)
         assert cut.outer.area == pytest.approx((10 + r * d_out) ** 2 - (2 - r * d_in) ** 2)
 
@@ -425,7 +425,7 @@ def test_membership_checks_the_method_of_no_points_too():
     # an empty input returned zeros whatever the method, a misspelt one included
     fz = fuzzify(square(), tme=0.1)
     for points in (np.zeros((0, 2)), [[0.0, 0.0]]):
-        with pytest.raises(ValueError, match=r"method must be one of \('sweep', 'exact'\), got 'exakt'"):
+        with pytest.raises(ValueError, match=r"method must be one of safe, thesis, exact \(or sweep, the thesis's old name\), got 'exakt'"):
             fz.membership(points, "exakt")
     assert fz.membership(np.zeros((0, 2)), "exact").shape == (0,)
 

@@ -129,10 +129,15 @@ def test_membership_command(tmp_path, capsys):
     capsys.readouterr()
     assert run("membership", m, "--points", pts, "--method", "both") == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert lines[0] == "x,y,mu_sweep,mu_exact"
+    assert lines[0] == "x,y,mu_safe,mu_exact"
     mu = np.array([[float(c) for c in ln.split(",")[2:]] for ln in lines[1:]])
     np.testing.assert_allclose(mu[:, 1], [1, 0.5, 0, 0])
-    np.testing.assert_allclose(mu[:, 0], [1, 1 - 0.5 * 2 ** 0.5, 0, 0], atol=1e-6)
+    np.testing.assert_allclose(mu[:, 0], [1, 0.5, 0, 0], atol=1e-6)  # the safe μ: the exact one along a wall
+    assert run("membership", m, "--points", pts, "--method", "all") == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[0] == "x,y,mu_safe,mu_thesis,mu_exact"
+    mu = np.array([[float(c) for c in ln.split(",")[2:]] for ln in lines[1:]])
+    np.testing.assert_allclose(mu[:, 1], [1, 1 - 0.5 * 2 ** 0.5, 0, 0], atol=1e-6)  # the thesis's sweep
     bad = tmp_path / "bad.csv"
     bad.write_text("1,2\n3,oops\n")
     assert run("membership", m, "--points", bad) == 2

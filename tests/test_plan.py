@@ -197,8 +197,11 @@ def test_refuses_a_start_inside_an_obstacle(pillar_room):
     with pytest.raises(PointNotFreeError, match="inside an obstacle") as e:
         plan(pillar_room, (5, 3), (1, 1))
     assert e.value.which == "start" and e.value.alpha_needed is None
-    # 1 m to the pillar's face, plus the sweep's offset there: corners move TME along the
-    # bisector, so a square's faces move TME·sin 45° (docs/fuzzy.md, normal vertex)
+    # 1 m to the pillar's face, plus the safe cut's offset there: every face moves TME (the
+    # thesis's sweep moves the corners TME along the bisector, so the faces only TME·sin 45°)
+    assert e.value.distance == pytest.approx(1.2, rel=1e-9)
+    with pytest.raises(PointNotFreeError) as e:
+        plan(pillar_room, (5, 3), (1, 1), method="thesis")
     assert e.value.distance == pytest.approx(1 + 0.2 / math.sqrt(2), rel=1e-9)
     assert isinstance(e.value, PlanError) and isinstance(e.value, FuzzyBrepError)
 
@@ -209,16 +212,16 @@ def test_refuses_a_goal_outside_the_map(pillar_room):
 
 
 def test_refuses_a_point_in_the_support_band_and_says_which_alpha_frees_it(pillar_room):
-    # the sweep moves the room's corners 0.2 along their bisectors, so its walls move
-    # d = 0.2·sin 45° at α = 0 and (1 − α)·d at α: a point 0.1 from a wall is free from
-    # α = 1 − 0.1/d on, and 0.1 short of the safe region at α = 0
-    d = 0.2 / math.sqrt(2)
-    with pytest.raises(PointNotFreeError, match="band") as e:
-        plan(pillar_room, (1, 0.1), (1, 1))
-    assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=1e-6)
-    assert e.value.distance == pytest.approx(d - 0.1, abs=1e-6)
-    assert f"free from about α = {1 - 0.1 / d:.3g} on" in str(e.value)
-    assert plan(pillar_room, (1, 0.1), (1, 1), alpha=0.3).length == pytest.approx(0.9)
+    # the safe cut moves the walls d = 0.2 at α = 0 and (1 − α)·d at α: a point 0.1 from a wall
+    # is free from α = 1 − 0.1/d on, and 0.1 short of the safe region at α = 0; the thesis's
+    # sweep moves the room's corners 0.2 along their bisectors, so its walls only 0.2·sin 45°
+    for method, d in (("safe", 0.2), ("thesis", 0.2 / math.sqrt(2))):
+        with pytest.raises(PointNotFreeError, match="band") as e:
+            plan(pillar_room, (1, 0.1), (1, 1), method=method)
+        assert e.value.alpha_needed == pytest.approx(1 - 0.1 / d, abs=1e-6)
+        assert e.value.distance == pytest.approx(d - 0.1, abs=1e-6)
+        assert f"free from about α = {1 - 0.1 / d:.3g} on" in str(e.value)
+    assert plan(pillar_room, (1, 0.1), (1, 1), alpha=0.6).length == pytest.approx(0.9)
 
 
 def test_a_point_on_the_crisp_wall_is_said_to_be_free_at_alpha_one(pillar_room):
@@ -234,8 +237,8 @@ def test_a_point_on_the_crisp_wall_is_said_to_be_free_at_alpha_one(pillar_room):
 def test_refuses_a_point_the_radius_pushes_out(pillar_room):
     with pytest.raises(PointNotFreeError, match="closer than the radius 0.3") as e:
         plan(pillar_room, (1, 0.4), (1, 1), radius=0.3)
-    # the wall is d = 0.2·sin 45° in at α = 0 (see above), the radius 2 % more (``_shrink``)
-    d = 0.2 / math.sqrt(2)
+    # the wall is d = 0.2 in at α = 0 (see above), the radius 2 % more (``_shrink``)
+    d = 0.2
     assert e.value.distance == pytest.approx(d + 0.3 * RADIUS_FACTOR - 0.4, abs=1e-6)
     # the safe region keeps 0.3·RADIUS_FACTOR off the wall, (1 − α)·d in at α: the point is free
     # from the α at which that disc's edge, 0.4 − 0.3·RADIUS_FACTOR from the wall, leaves the band
@@ -257,7 +260,7 @@ def test_a_point_in_the_margin_beyond_the_radius_is_not_said_to_be_closer_than_i
     with pytest.raises(PointNotFreeError) as e:
         plan(ROOM.difference(box(4, 2, 6, 4)), (1, 0.303), (1, 3), radius=0.3)
     assert f"{margin} the edge of the free space" in str(e.value) and "closer than" not in str(e.value)
-    d = 0.2 / math.sqrt(2)  # the wall at α = 0 (see above)
+    d = 0.2  # the wall at α = 0 (see above)
     with pytest.raises(PointNotFreeError) as e:
         plan(pillar_room, (1, d + 0.303), (1, 3), radius=0.3)
     assert f"{margin} the edge of the space free at α = 0; it is free from about α = " in str(e.value)
@@ -296,18 +299,24 @@ def test_the_alpha_that_frees_a_point_by_a_sharp_corner(dx):
 
 
 def test_the_alpha_that_frees_a_point_beside_a_sharp_tip_is_where_the_tip_last_lies_in_its_disc():
-    # the spike's tip moves along the spike's axis, from 2.2 at α = 0 to 2 at α = 1; the disc
-    # the safe region keeps clear about p first holds the tip's path at y* = p_y − √(R² − dx²):
-    # p is free once the tip is below y*, from α = 1 − (y* − 2)/0.2 on. Sampling the disc's edge
-    # alone came within 1.5e-3 of it
+    # the thesis's sweep moves the spike's tip along the spike's axis, from 2.2 at α = 0 to 2 at
+    # α = 1; the disc the safe region keeps clear about p first holds the tip's path at
+    # y* = p_y − √(R² − dx²): p is free once the tip is below y*, from α = 1 − (y* − 2)/0.2 on.
+    # Sampling the disc's edge alone came within 1.5e-3 of it
     room = ROOM.difference(shapely.Polygon([(4.9, -1), (5.1, -1), (5, 2)]))
     fz = fuzzify(BRepMap.from_shapely(room), tme=0.2)
     R = 0.3 * RADIUS_FACTOR
     p = (5.005, 2.1 + R)
     with pytest.raises(PointNotFreeError) as e:
-        plan(fz, p, (1, 3), radius=0.3)
+        plan(fz, p, (1, 3), radius=0.3, method="thesis")
     y = p[1] - math.sqrt(R * R - 0.005**2)
     assert e.value.alpha_needed == pytest.approx(1 - (y - 2) / 0.2, abs=1e-4)
+    # the safe cut's fan about the tip ends in a segment tangent to the disc of (1 − α)·0.2 at
+    # the spike's axis, flat for ±(1 − α)·0.2·tan(ψ/8) about it: the disc about p holds its
+    # middle, which reaches 2.1 = p_y − R at α = 0.5
+    with pytest.raises(PointNotFreeError) as e:
+        plan(fz, p, (1, 3), radius=0.3)
+    assert e.value.alpha_needed == pytest.approx(0.5, abs=1e-4)
 
 
 TILTED = shapely.affinity.rotate(ROOM.difference(box(4, 2, 6, 4)), 17, origin=(0, 0))
@@ -387,25 +396,29 @@ def test_radius_closes_a_narrow_door():
 
 
 def test_support_closes_a_door_the_crisp_map_leaves_open():
-    # the door's corners move 0.5 along their bisectors, its walls 0.5·sin 45° = 0.35 each
+    # the safe sweep moves the door's walls by the whole d_in = 0.5·(1 − α) each (the thesis's
+    # sweep by only 0.5·sin 45° = 0.35 at its corners)
     fz = fuzzify(BRepMap.from_shapely(DOOR), tme=0.5)
     with pytest.raises(NoConnectionError, match="α = 0") as e:
         plan(fz, (1, 1), (8, 1))
     # the message says at which α they are joined (issue 20: it gave no hint): the walls close
-    # the door below α = 1/7 (0.7·(1 − α) > 0.6)
-    assert str(e.value).endswith("; at α = 0.25 (radius 0) they are joined")
+    # the door 0.6 wide below α = 0.4 (1.0·(1 − α) > 0.6), so the first step that joins is 0.5
+    assert str(e.value).endswith("; at α = 0.5 (radius 0) they are joined")
+    with pytest.raises(NoConnectionError, match="at α = 0.25 .*they are joined"):
+        plan(fz, (1, 1), (8, 1), method="thesis")  # the thesis's: below α = 1/7 (0.7·(1 − α) > 0.6)
     p = plan(fz, (1, 1), (8, 1), alpha=0.9)
     assert_safe(p, fz.alpha_cut(0.9).inner)
     # with a radius: the higher α and the smaller radius it names both plan, the steps before do not
     with pytest.raises(NoConnectionError) as e:
-        plan(fz, (1, 1), (8, 1), alpha=0.25, radius=0.2)
-    m = re.search(r"at α = ([0-9.]+) \(radius 0.2\) they are joined and at radius ([0-9.]+) \(α = 0.25\)", str(e.value))
+        plan(fz, (1, 1), (8, 1), alpha=0.6, radius=0.25)  # a gap of 0.2 between the cut's walls
+    m = re.search(r"at α = ([0-9.]+) \(radius 0.25\) they are joined and at radius ([0-9.]+) \(α = 0.6\)", str(e.value))
     assert m, str(e.value)
     a, r = float(m.group(1)), float(m.group(2))
-    assert plan(fz, (1, 1), (8, 1), alpha=a, radius=0.2).length > 7
-    assert plan(fz, (1, 1), (8, 1), alpha=0.25, radius=r).length > 7
+    assert (a, r) == (1.0, 0.0625)  # gaps 0.6 ≥ 2·0.25 and 0.2 ≥ 2·0.0625 (not 0.45 nor 2·0.125)
+    assert plan(fz, (1, 1), (8, 1), alpha=a, radius=0.25).length > 7
+    assert plan(fz, (1, 1), (8, 1), alpha=0.6, radius=r).length > 7
     with pytest.raises(NoConnectionError):
-        plan(fz, (1, 1), (8, 1), alpha=a - 0.25, radius=0.2)
+        plan(fz, (1, 1), (8, 1), alpha=a - 0.25, radius=0.25)
 
 
 def test_bad_arguments_are_value_errors():
@@ -496,6 +509,8 @@ def test_planners_are_kept_with_their_map_and_share_its_alpha_cut(pillar_room):
     assert planner(pillar_room, 0.0, 0.1, "exact").free is not a.free
     fz = fuzzify(BRepMap.from_shapely(U), tme=0.1)
     planner(fz, 0.0).plan((1, 1), (9, 1))
+    assert planner(pillar_room, 0.0, 0.1, "sweep") is planner(pillar_room, 0.0, 0.1, "thesis")  # its old name
+    gc.collect()  # maps other tests left for the collector go now, not in the count below
     n = len(plan_module._PLANNERS)
     del fz
     gc.collect()
@@ -669,7 +684,7 @@ def test_cli_json_and_plot(room_file, tmp_path, capsys):
     assert main(["plan", str(room_file), "--start", "1", "3", "--goal", "9", "3", "--radius", "0.1", "--json",
                  "--plot", str(png)]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["mode"] == "shortest" and out["alpha"] == 0 and out["radius"] == 0.1 and out["method"] == "sweep"
+    assert out["mode"] == "shortest" and out["alpha"] == 0 and out["radius"] == 0.1 and out["method"] == "safe"
     path = np.array(out["path"])
     assert path[0].tolist() == [1, 3] and path[-1].tolist() == [9, 3]
     assert out["length"] == pytest.approx(shapely.LineString(path).length)

@@ -19,7 +19,8 @@ from fuzzybrep.brep import BRepMap
 from fuzzybrep.cli import main
 from fuzzybrep.errors import MapFileError
 from fuzzybrep.fuzzy.map import fuzzify
-from fuzzybrep.viewer import band_quads, html_document, payload, read_path, swept_cut, write_html
+from fuzzybrep.fuzzy.membership import Triangular
+from fuzzybrep.viewer import band_quads, html_document, payload, read_path, safe_pieces, swept_cut, write_html
 
 
 def run(*argv) -> int:
@@ -135,13 +136,17 @@ def test_view_command(floor, tmp_path, capsys):
 
 @pytest.mark.parametrize("alpha", [0.0, 0.3, 0.8])
 def test_swept_cut_is_the_alpha_cut(floor, alpha):
-    """The page draws crisp ∓ the band hulls; that is the proper polygon (docs/fuzzy.md)."""
-    for fz in (floor, fuzzify(BRepMap.from_shapely(dumbbell(0.3)), tme=0.2)):
-        cut = fz.alpha_cut(alpha)
-        inner, outer = swept_cut(fz, alpha)
-        band = cut.outer.area - cut.inner.area
-        assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-6 * band
-        assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-6 * band
+    """The page draws crisp ∓ the band hulls (thesis) or the safe sweep's pieces; that is the
+    proper polygon (docs/fuzzy.md), and the safe cut's positive-winding union (Clipper), here
+    checked against GEOS's union of the pieces."""
+    sided = fuzzify(BRepMap.from_shapely(dumbbell(0.3)), Triangular(tme_in=0.1, tme_out=0.3))
+    for fz in (floor, fuzzify(BRepMap.from_shapely(dumbbell(0.3)), tme=0.2), sided):
+        for method in ("safe", "thesis"):
+            cut = fz.alpha_cut(alpha, method)
+            inner, outer = swept_cut(fz, alpha, method)
+            band = cut.outer.area - cut.inner.area
+            assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-6 * band
+            assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-6 * band
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -149,11 +154,12 @@ def test_swept_cut_is_the_alpha_cut(floor, alpha):
 def test_swept_cut_is_the_alpha_cut_on_random_maps(crisp):
     fz = fuzzify(crisp, tme=0.3)
     for alpha in (0.0, 0.5):
-        cut = fz.alpha_cut(alpha)
-        inner, outer = swept_cut(fz, alpha)
-        band = max(cut.outer.area - cut.inner.area, 1e-12)
-        assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-5 * band
-        assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-5 * band
+        for method in ("safe", "thesis"):
+            cut = fz.alpha_cut(alpha, method)
+            inner, outer = swept_cut(fz, alpha, method)
+            band = max(cut.outer.area - cut.inner.area, 1e-12)
+            assert shapely.symmetric_difference(inner, cut.inner).area <= 1e-5 * band
+            assert shapely.symmetric_difference(outer, cut.outer).area <= 1e-5 * band
 
 
 # ------------------------------------------------------------------------- in Chromium
@@ -252,7 +258,7 @@ def test_status_line_shows_mu_under_the_cursor(browser, floor, floor_page):
         ActionChains(browser).move_to_element_with_offset(
             canvas, int(round(sx - size["width"] / 2)), int(round(sy - size["height"] / 2))).perform()
         text = status.text
-        m = re.search(r"μ = ([0-9.]+) \(sweep\) · exact μ = ([0-9.]+)", text)
+        m = re.search(r"μ = ([0-9.]+) \(safe\) · exact μ = ([0-9.]+)", text)
         assert m, text
         mu, exact = float(m.group(1)), float(m.group(2))
         assert 0.0 <= mu <= 1.0 and 0.0 <= exact <= 1.0
@@ -288,7 +294,8 @@ def test_drag_pans_wheel_zooms_double_click_fits(browser, floor_page):
 
 @pytest.mark.browser
 def test_page_mu_is_the_map_mu(browser, floor, floor_page):
-    """The page's μ (sweep and exact) against FuzzyBRepMap.membership at points near the walls."""
+    """The page's μ (its own method's, the safe sweep's, and exact) against FuzzyBRepMap.membership
+    at points near the walls."""
     open_page(browser, floor_page)
     rng = np.random.default_rng(7)
     V = np.vstack([r.vertices for r in floor.crisp.rings])
@@ -296,8 +303,8 @@ def test_page_mu_is_the_map_mu(browser, floor, floor_page):
                      rng.uniform([-0.5, -0.5], [10.5, 6.5], (200, 2))])
     got = np.array(browser.execute_script(
         "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
-        "return [m.sweep, m.exact]; })", pts.tolist()))
-    sweep, exact = floor.membership(pts, "sweep"), floor.membership(pts, "exact")
+        "return [m.mu, m.exact]; })", pts.tolist()))
+    sweep, exact = floor.membership(pts, "safe"), floor.membership(pts, "exact")
     assert (sweep > 0).sum() > 150 and (exact > 0).sum() > 150
     # T and V travel at 0.1 mm: μ agrees to a few 1e-4 (a thousand samples of d(α) do the rest)
     np.testing.assert_allclose(got[:, 1], exact, atol=2e-3)
@@ -316,29 +323,48 @@ def two_rooms():
                          ids=["two-regions", "thesis-mm-clockwise"])
 def test_page_mu_on_other_maps(browser, tmp_path, make, scale):
     fz = make()
-    write_html(tmp_path / "map.html", fz)
-    open_page(browser, tmp_path / "map.html")
     rng = np.random.default_rng(3)
     V = np.vstack([r.vertices for r in fz.crisp.rings])
     pts = V[rng.integers(len(V), size=200)] + rng.uniform(-0.3, 0.3, (200, 2)) * scale
-    got = np.array(browser.execute_script(
-        "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
-        "return [m.sweep, m.exact]; })", pts.tolist()))
-    sweep, exact = fz.membership(pts, "sweep"), fz.membership(pts, "exact")
-    assert (sweep > 0).sum() > 80
-    np.testing.assert_allclose(got[:, 1], exact, atol=5e-3)
-    np.testing.assert_allclose(got[:, 0], sweep, atol=5e-3)
+    for method in ("safe", "thesis"):
+        write_html(tmp_path / "map.html", fz, method=method)
+        open_page(browser, tmp_path / "map.html")
+        got = np.array(browser.execute_script(
+            "return arguments[0].map(([x, y]) => { const m = window.fuzzybrepViewer.muAt(x, y); "
+            "return [m.mu, m.exact]; })", pts.tolist()))
+        mu, exact = fz.membership(pts, method), fz.membership(pts, "exact")
+        assert (mu > 0).sum() > 80
+        np.testing.assert_allclose(got[:, 1], exact, atol=5e-3)
+        np.testing.assert_allclose(got[:, 0], mu, atol=5e-3)
 
 
 @pytest.mark.browser
-def test_page_band_hulls_are_the_map_bands(browser, floor, floor_page):
-    open_page(browser, floor_page)
+def test_page_band_hulls_are_the_map_bands(browser, floor, floor_page, tmp_path):
+    write_html(tmp_path / "thesis.html", floor, method="thesis")
+    open_page(browser, tmp_path / "thesis.html")
     for alpha in (0.0, 0.35):
         h = browser.execute_script(f"return window.fuzzybrepViewer.hulls({alpha})")
         free, obstacle = band_quads(floor, alpha)
         for js, py in ((h["free"], free), (h["obstacle"], obstacle)):
             page = shapely.union_all([shapely.Polygon(np.reshape(c, (-1, 2))) for c in js])
             ref = shapely.union_all(shapely.convex_hull(shapely.multipoints(py)))
+            # the page's offsets are good to 0.1 mm (T and V are sent at that step)
+            assert shapely.symmetric_difference(page, ref).area <= 1e-4 * ref.length
+            # counter-clockwise, so that one nonzero fill paints their union
+            assert all(shapely.Polygon(np.reshape(c, (-1, 2))).exterior.is_ccw for c in js)
+
+
+@pytest.mark.browser
+def test_page_pieces_are_the_safe_sweeps(browser, floor, floor_page):
+    open_page(browser, floor_page)
+    assert browser.execute_script("return window.fuzzybrepViewer.method") == "safe"
+    for alpha in (0.0, 0.35):
+        h = browser.execute_script(f"return window.fuzzybrepViewer.hulls({alpha})")
+        free, obstacle = safe_pieces(floor, alpha)
+        for js, py in ((h["free"], free), (h["obstacle"], obstacle)):
+            assert len(js) == len(py)
+            page = shapely.union_all([shapely.Polygon(np.reshape(c, (-1, 2))) for c in js])
+            ref = shapely.union_all([shapely.Polygon(c) for c in py])
             # the page's offsets are good to 0.1 mm (T and V are sent at that step)
             assert shapely.symmetric_difference(page, ref).area <= 1e-4 * ref.length
             # counter-clockwise, so that one nonzero fill paints their union
@@ -359,7 +385,7 @@ def test_intel_page_in_chromium(browser, built_map, tmp_path):
                            "return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
     assert canvas_pixels(browser) != before
     mu = browser.execute_script("const v = window.fuzzybrepViewer; const [x, y] = arguments[0];"
-                                "return v.muAt(x, y).sweep", fuzzy.crisp.principal.vertices[0].tolist())
+                                "return v.muAt(x, y).mu", fuzzy.crisp.principal.vertices[0].tolist())
     assert 0.99 <= mu <= 1.0
 
 

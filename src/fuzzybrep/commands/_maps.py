@@ -12,7 +12,7 @@ from ..formats.compact import MAGIC
 from ..formats.files import loads_json
 from ..formats.geojson import read_geojson
 from ..formats.mapfile import FORMAT, MapFile, from_json, map_from_bytes, read_map
-from ..fuzzy.map import FuzzyBRepMap, fuzzify
+from ..fuzzy.map import ALIASES, DEFAULT_METHOD, METHODS, FuzzyBRepMap, fuzzify
 from ..fuzzy.membership import DEFAULT_TME_M, parse_spec, total_maximum_error
 
 
@@ -65,6 +65,19 @@ def fuzzify_from_args(crisp: BRepMap, args: argparse.Namespace, tme_required: bo
     """fuzzify() with the options of ``add_mf_arguments``."""
     mf, frontier = mf_from_args(args, tme_required)
     return fuzzify(crisp, mf, frontier_mf=frontier)
+
+
+#: what --method means, for every command that takes it
+METHOD_HELP = ("safe: the conservative sweep, never closer to a wall than the uncertainty allows (default); "
+               "thesis: the thesis's single normal vertex sweep (sweep is its old name); exact: the Extension "
+               "principle (the crisp map buffered)")
+
+
+def add_method_argument(parser: argparse.ArgumentParser, flag: str = "--method", what: str = "α-cuts",
+                        extra: tuple[str, ...] = (), default: str = DEFAULT_METHOD) -> None:
+    """``--method safe|thesis|exact`` (``sweep`` read as ``thesis``), default safe."""
+    parser.add_argument(flag, type=lambda s: ALIASES.get(s, s), choices=METHODS + extra, default=default,
+                        help=f"{what} by {METHOD_HELP}")
 
 
 def add_map_argument(parser: argparse.ArgumentParser) -> None:

@@ -8,7 +8,7 @@ import sys
 
 from ..formats.files import check_outputs, write_atomic
 from ..formats.geojson import alpha_cut_collection
-from ._maps import add_map_argument, load_map
+from ._maps import add_map_argument, add_method_argument, load_map
 from ._progress import steps
 from ._types import alpha
 
@@ -20,8 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
     p.add_argument("--alpha", type=alpha, action="append", required=True, metavar="A",
                    help="membership grade in [0, 1]; repeat for several α-cuts")
-    p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
-                   help="sweep: the thesis's single normal vertex method (default); exact: Extension principle")
+    add_method_argument(p)
     p.add_argument("--out", metavar="CUT.geojson", help="file to write (default: standard output)")
 
 

@@ -53,7 +53,7 @@ def run(args) -> int:
     pct = lambda x: f"{100 * x:.2f} %"  # noqa: E731
     print(f"{args.log}: map from {e.scans_used} scans, {e.scans_held_out} held out (every {ordinal(e.holdout)}), "
           f"{e.exact.endpoints} held-out endpoints under 5 m")
-    for name, s in (("exact band", e.exact), ("sweep band", e.sweep)):
+    for name, s in (("exact band", e.exact), ("safe band (the default α-cut)", e.safe), ("thesis's sweep band", e.thesis)):
         print(f"  {name}: explained {pct(s.explained)}, violations {pct(s.violations)}, beyond {pct(s.beyond)}")
     print(f"  of the exact band's violations, {pct(e.violations_on_small_objects)} of all endpoints lie on small "
           f"isolated objects (< 0.5 m across, in front of both neighbours: legs, people, poles)")

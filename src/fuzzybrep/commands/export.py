@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._maps import add_map_argument, load_map
+from ._maps import add_map_argument, add_method_argument, load_map
 from ._progress import steps
 from ._types import alpha, file_name, number
 
@@ -47,17 +47,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                           "kinds, Table 4.2 (fuzzybrep.formats.compact; the fuzzy tables follow from it in O(n))")
     p.add_argument("--alpha", type=alpha, action="append", metavar="A",
                    help="α level for --geojson, --svg, --bag and --mcap; repeat for several (default 0 0.25 0.5 0.75 1)")
-    p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
-                   help="α-cuts for --geojson, --svg, --bag and --mcap: sweep (the thesis's, default) or exact "
-                        "(Extension principle)")
+    add_method_argument(p, what="α-cuts for --geojson, --svg, --bag, --mcap and the --nav2 keepout mask")
     p.add_argument("--resolution", type=_resolution, default=0.05,
                    help="--ros, --nav2, --bag, --mcap: cell side in metres (default 0.05; in the map's unit if it is "
                         "not m, cm or mm)")
     p.add_argument("--name", type=file_name, default=None,
                    help="--ros, --nav2: base name of the files (default: the map file's name)")
-    p.add_argument("--ros-method", choices=("exact", "sweep"), default="exact",
-                   help="--ros, --nav2, --bag, --mcap: μ of the cells: exact (distance to the crisp boundary, default) "
-                        "or sweep")
+    add_method_argument(p, "--ros-method", what="--ros, --nav2, --bag, --mcap: μ of the cells")
     p.add_argument("--nav2-mode", choices=("scale", "raw"), default="scale",
                    help="--nav2: map_server mode of the map and the speed mask (default scale: PNG, alpha marks unknown)")
     p.add_argument("--keepout-alpha", type=alpha, default=0.0, metavar="A",

@@ -6,7 +6,8 @@ import argparse
 import sys
 
 from ..formats.geojson import read_points
-from ._maps import add_map_argument, load_map
+from ..fuzzy.map import METHODS
+from ._maps import add_map_argument, add_method_argument, load_map
 
 NAME = "membership"
 HELP = "print μ of the fuzzy boundary at each point of a CSV file (x,y per line)"
@@ -15,14 +16,14 @@ HELP = "print μ of the fuzzy boundary at each point of a CSV file (x,y per line
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
     p.add_argument("--points", required=True, metavar="PTS.csv", help="CSV with x,y per line (header optional)")
-    p.add_argument("--method", choices=("sweep", "exact", "both"), default="sweep",
-                   help="sweep (default), exact (Extension principle), or both columns")
+    add_method_argument(p, what="μ", extra=("both", "all"))
 
 
 def run(args: argparse.Namespace) -> int:
     fuzzy = load_map(args)
     pts = read_points(args.points)
-    methods = ("sweep", "exact") if args.method == "both" else (args.method,)
+    # both: the default's and the exact μ side by side; all: every method's
+    methods = {"both": ("safe", "exact"), "all": METHODS}.get(args.method, (args.method,))
     cols = [fuzzy.membership(pts, m) for m in methods]
     out = sys.stdout
     out.write(",".join(["x", "y"] + [f"mu_{m}" if len(methods) > 1 else "mu" for m in methods]) + "\n")

@@ -8,7 +8,7 @@ import math
 import sys
 
 from ..use.plan import MODES, planner
-from ._maps import add_map_argument, load_map
+from ._maps import add_map_argument, add_method_argument, load_map
 from ._types import alpha, finite, number
 
 NAME = "plan"
@@ -31,8 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mode", choices=MODES, default="shortest",
                    help="shortest: the exact shortest path (default); clearance: along the medial axis, "
                         "as far from obstacles as the space allows")
-    p.add_argument("--method", choices=("sweep", "exact"), default="sweep",
-                   help="α-cut by the thesis's sweep (default, the map's own) or by the Extension principle")
+    add_method_argument(p, what="the α-cut planned in")
     p.add_argument("--json", action="store_true", help="print the plan as JSON: path, length, mode, alpha, ...")
     p.add_argument("--plot", metavar="PNG", help="picture of the map, the safe region and the path")
 

@@ -22,6 +22,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_map_argument(p)
     p.add_argument("--html", required=True, metavar="OUT.html", help="page to write (no network needed to open it)")
     p.add_argument("--path", metavar="PATH.json", help='planned path to draw: {"path": [[x, y], ...]}')
+    p.add_argument("--method", type=lambda s: {"sweep": "thesis"}.get(s, s), choices=("safe", "thesis"), default="safe",
+                   help="α-cuts and μ the page draws: safe (the conservative sweep, default) or thesis (the "
+                        "thesis's single normal vertex sweep; sweep is its old name)")
     p.add_argument("--alphas", type=_levels, default=101, metavar="N",
                    help="positions of the α slider from 0 to 1 (default 101: steps of 0.01)")
 
@@ -39,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
         fuzzy = load_map(args, m)
         path = read_path(args.path) if args.path else None
         step(f"α-cuts at {args.alphas} levels into {args.html}")
-        n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas)
+        n = write_html(args.html, fuzzy, m.poses, path, name=Path(args.map).name, slider_levels=args.alphas,
+                       method=args.method)
     extras = [f"{len(m.poses)} poses"] if m.poses is not None else []
     if path is not None:
         extras.append(f"a path of {len(path)} points")

@@ -199,7 +199,7 @@ def _boundary_cells(a: np.ndarray, b: np.ndarray, origin, resolution: float, sha
     return mask
 
 
-def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") -> MembershipRaster:
+def membership_raster(fuzzy, resolution: float = 0.05, method: str = "safe") -> MembershipRaster:
     """Rasterise a fuzzy B-rep map at cell centres: classes from the crisp map and its obstacle
     band (module doc), μ from the fuzzy map.
 
@@ -213,8 +213,10 @@ def membership_raster(fuzzy, resolution: float = 0.05, method: str = "sweep") ->
         raise ValueError(f"resolution must be a positive number, got {resolution!r}")
     crisp = fuzzy.crisp
     table = fuzzy.table
-    reach_out = max(f.support_out for _, f in table)
-    reach = max(reach_out, max(f.support_in for _, f in table))
+    # the safe method's fans and stadium caps circumscribe their arcs: their corners reach further
+    wider = fuzzy.safe["reach"] if method == "safe" else 1.0
+    reach_out = max(f.support_out for _, f in table) * wider
+    reach = max(reach_out, max(f.support_in for _, f in table) * wider)
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
     pad = reach_out + resolution
     # rounded so that the YAML reads -23.45, not -23.450000000000003

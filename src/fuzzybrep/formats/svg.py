@@ -117,7 +117,7 @@ def svg_document(fuzzy, cuts, support=None, *, title: str | None = None, width_p
     if support is None:
         support = next((c for c in cuts if c.alpha == 0.0), None)
         if support is None:
-            support = fuzzy.alpha_cut(0.0, cuts[0].method if cuts else "sweep")
+            support = fuzzy.alpha_cut(0.0, cuts[0].method if cuts else "safe")
     x0, y0, x1, y1 = shapely.bounds(shapely.union(support.outer, fuzzy.crisp_geometry))
     extent = max(x1 - x0, y1 - y0, 1e-300)
     q = coordinate_quantum(crisp.unit, extent)

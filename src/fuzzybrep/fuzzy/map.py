@@ -9,10 +9,19 @@ gets its normal vertex and parametric line (Table 4.1), every edge its inner and
   the lines in O(n) and made proper (thesis 4.1.2);
 - ``membership(points)``: μ of the fuzzy boundary at each point;
 
-both by the thesis's sweep (``method="sweep"``) or by the exact fuzzification of the Extension
-principle (``method="exact"``, thesis 2.1.4: μ = membership function of the signed distance to
-the crisp boundary, whose α-cuts are the map buffered with round joins), and
-``approximation_error`` measures how far the first is from the second.
+by one of three methods:
+
+- ``"safe"`` (the default): the conservative sweep (``safe_sweep``, ``safe_cut``), read from
+  stored per-vertex directions in O(n) and made proper by one winding-number union; its inner
+  cut never reaches into the exact band and its outer cut always holds it (mitre and bevel
+  vertices instead of the single normal vertex);
+- ``"thesis"``: the thesis's single-normal-vertex sweep (4.1.2), as Table 4.1 prints it
+  (``"sweep"`` is accepted as its old name);
+- ``"exact"``: the exact fuzzification of the Extension principle (thesis 2.1.4: μ = membership
+  function of the signed distance to the crisp boundary, whose α-cuts are the map buffered with
+  round joins);
+
+and ``approximation_error`` measures how far the thesis's sweep is from the exact method.
 
 Only the crisp map and Table 4.2 are stored (``mapfile``); everything else is rebuilt on load.
 """
@@ -30,7 +39,7 @@ from ..brep import LARGEST, BRepMap, Ring, frontier_fm, validate_map
 from ..errors import GeometryError, MapFileError, MembershipFunctionError
 from ..formats.mapfile import MapFile, read_map, write_map
 from ..geometry import polygonal
-from . import exact, sweep_cut, sweep_membership, tables
+from . import exact, safe_cut, sweep_cut, sweep_membership, tables
 from .accuracy import ErrorRow, approximation_error
 from .exact import EXACT_QUAD_SEGS
 from .membership import DEFAULT_TME_M, THESIS_TME_MM, MembershipFunction, MembershipTable, Triangular
@@ -40,7 +49,11 @@ from .sweep import ParametricLines, normal_vertices_stacked
 
 SHELL = "shell"
 HOLE = "hole"
-METHODS = ("sweep", "exact")
+#: α-cut and μ methods; the first is the default
+METHODS = ("safe", "thesis", "exact")
+#: old names still accepted (map files, scripts and CLI options that said ``sweep``)
+ALIASES = {"sweep": "thesis"}
+DEFAULT_METHOD = METHODS[0]
 #: membership functions with a support wider than ± this are refused (by ``fuzzify``): their
 #: support polygons and α-cuts square distances, which passes the largest float from about
 #: 1.3e154 on (a TME of 1e154 ended in OverflowError, 1e160 in GEOS exceptions); up to 1e150 the
@@ -157,10 +170,12 @@ class FuzzyBRepMap:
         rings stacked (``sweep_cut.offset_vertices``)."""
         return sweep_cut.offset_vertices(self, alpha)
 
-    def alpha_cut(self, alpha: float, method: str = "sweep", *, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
+    def alpha_cut(self, alpha: float, method: str = DEFAULT_METHOD, *, quad_segs: int = EXACT_QUAD_SEGS) -> AlphaCut:
         """The α-cut: inner and outer polygons, all valid (thesis 2.1.2, 4.1.2).
 
-        ``sweep``: read from the parametric lines and made proper (single normal vertex method,
+        ``safe`` (default): the conservative sweep, inner(α) ⊆ crisp ⊖ d_in(α) and outer(α) ⊇
+        crisp ⊕ d_out(α) (``safe_cut``, proof in ``safe_sweep``). ``thesis`` (or ``sweep``):
+        read from the parametric lines and made proper (single normal vertex method,
         ``sweep_cut``). ``exact``: the Extension principle, i.e. the crisp map buffered by −d and
         +d (round joins, ``quad_segs`` segments per quarter circle); with several distances or an
         asymmetric function, minus and plus the band each edge reaches d_in(α) into its own ring
@@ -168,11 +183,17 @@ class FuzzyBRepMap:
         α-cuts nest: α1 < α2 gives inner(α1) ⊆ inner(α2) and outer(α2) ⊆ outer(α1).
         """
         alpha = check_alpha(alpha)
+        method = check_method(method)
         if method == "exact":
             return AlphaCut(alpha, "exact", *exact.exact_cut(self, alpha, quad_segs), self.unit)
-        if method != "sweep":
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        if method == "safe":
+            return AlphaCut(alpha, method, *safe_cut.safe_cut(self, alpha), self.unit)
         return AlphaCut(alpha, method, *sweep_cut.sweep_cut(self, alpha), self.unit)
+
+    @cached_property
+    def safe(self) -> dict:
+        """The conservative sweep's stored directions and what its cuts share (``safe_cut.prepare``)."""
+        return safe_cut.prepare(self)
 
     @cached_property
     def edge_groups(self) -> list[dict]:
@@ -181,18 +202,19 @@ class FuzzyBRepMap:
 
     # -- membership ----------------------------------------------------------------------------
 
-    def membership(self, points, method: str = "sweep") -> np.ndarray:
+    def membership(self, points, method: str = DEFAULT_METHOD) -> np.ndarray:
         """μ of the fuzzy boundary at each of an (m, 2) array of points, vectorised.
 
-        ``exact``: the function of the signed distance to the crisp boundary, negative inside
+        ``safe`` (default): μ ≥ α exactly where the safe α-cut's band is (the function of the
+        smallest distance at which one of its rectangles, fans or stadiums holds the point;
+        ``safe_cut``). ``exact``: the function of the signed distance to the crisp boundary, negative inside
         the boundary's own ring (Extension principle; the nearest edge of each function on each
-        side decides). ``sweep``: the fuzzy union (max,
+        side decides). ``thesis`` (or ``sweep``): the fuzzy union (max,
         thesis 2.1.3) over edges of the swept edge: in the band between an edge and its inner
         (or outer) support edge, μ is the α whose α-cut edge passes through the point. 1 on the
         crisp boundary, 0 beyond the support, within [0, 1] everywhere.
         """
-        if method not in METHODS:
-            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        method = check_method(method)
         p = np.asarray(points, dtype=np.float64)
         if p.size == 0:  # no points ([] as well as an empty (0, 2) array): no grades
             return np.zeros(0)
@@ -205,6 +227,8 @@ class FuzzyBRepMap:
                                 f"for maps up to {LARGEST:g} {self.unit} across, beyond which its arithmetic overflows")
         if method == "exact":
             return exact.membership_exact(self, p)
+        if method == "safe":
+            return safe_cut.membership_safe(self, p)
         return sweep_membership.membership_sweep(self, p)
 
     @cached_property
@@ -261,6 +285,14 @@ class FuzzyBRepMap:
     @classmethod
     def load(cls, path: str | os.PathLike, tme: float | None = None) -> "FuzzyBRepMap":
         return cls.from_mapfile(read_map(path), path, tme)
+
+
+def check_method(method: str) -> str:
+    """The method's name (``sweep`` read as ``thesis``); ValueError naming the methods otherwise."""
+    m = ALIASES.get(method, method)
+    if m not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)} (or sweep, the thesis's old name), got {method!r}")
+    return m
 
 
 def check_alpha(alpha) -> float:

@@ -23,7 +23,7 @@ import shapely
 
 from ..brep import LARGEST, BRepMap
 from ..errors import NoConnectionError, PlanError, PointNotFreeError
-from ..fuzzy.map import FuzzyBRepMap
+from ..fuzzy.map import DEFAULT_METHOD, FuzzyBRepMap, check_method
 from ..geometry import polygonal
 from . import plan_diagnosis
 from .clearance import axis_links, clearance_path
@@ -115,9 +115,10 @@ class Planner:
         self._spacing = spacing
 
     @classmethod
-    def of(cls, source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep", **kw) -> "Planner":
+    def of(cls, source, alpha: float = 0.0, radius: float = 0.0, method: str = DEFAULT_METHOD, **kw) -> "Planner":
         """A planner for a fuzzy map at α (or for a crisp map or polygon, where α does not apply)."""
         alpha = applies(source, alpha, method)
+        method = check_method(method)
         fuzzy = source if isinstance(source, FuzzyBRepMap) else None
         unit = source.unit if isinstance(source, (FuzzyBRepMap, BRepMap)) else kw.pop("unit", "m")
         return cls(free_space(source, alpha or 0.0, method), radius, alpha=alpha,
@@ -334,13 +335,14 @@ _PLANNERS: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary
 _KEEP = 8
 
 
-def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep") -> Planner:
+def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = DEFAULT_METHOD) -> Planner:
     """A planner for a map at (α, radius, method), kept with the map while it lives so that its
     α-cut and graphs are built once (α-cuts are shared between radii). Shapely geometries get
     a new planner each time: keep it yourself."""
     if not isinstance(source, (FuzzyBRepMap, BRepMap)):
         return Planner.of(source, alpha, radius, method)
     a = applies(source, alpha, method)
+    method = check_method(method)
     fuzzy = source if isinstance(source, FuzzyBRepMap) else None
     m = method if fuzzy is not None else None
     r = check_radius(radius)
@@ -357,7 +359,7 @@ def planner(source, alpha: float = 0.0, radius: float = 0.0, method: str = "swee
 
 
 def plan(source, start, goal, alpha: float = 0.0, radius: float = 0.0, mode: str = "shortest",
-         method: str = "sweep") -> Plan:
+         method: str = DEFAULT_METHOD) -> Plan:
     """Plan a path from ``start`` to ``goal`` in the space a fuzzy map holds free at confidence α,
     kept ``radius`` from its edge (``safe_region``).
 
@@ -365,7 +367,7 @@ def plan(source, start, goal, alpha: float = 0.0, radius: float = 0.0, mode: str
             (planned in as given; α and method do not apply)
     mode    ``shortest``: the exact Euclidean shortest path (visibility graph);
             ``clearance``: along the medial axis, as far from obstacles as the region allows
-    method  α-cut by the thesis's ``sweep`` (default, the map's own) or ``exact``
+    method  α-cut by ``safe`` (default: the conservative sweep), ``thesis`` (or ``sweep``) or ``exact``
     """
     return planner(source, alpha, radius, method).plan(start, goal, mode)
 

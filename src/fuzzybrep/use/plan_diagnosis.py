@@ -13,6 +13,8 @@ import numpy as np
 import shapely
 
 from ..errors import FuzzyBrepError, PointNotFreeError
+from ..fuzzy import safe_cut
+from ..fuzzy.map import DEFAULT_METHOD
 from .safe_region import QUAD_SEGS, RADIUS_FACTOR
 
 
@@ -81,7 +83,7 @@ def why_not_free(pl, p: np.ndarray, pt: shapely.Point) -> tuple[str, float | Non
                 f"(α = 1 is the crisp map)"), None
     need = alpha_needed(pl, fuzzy, p)
     if not in_free:
-        mu = float(fuzzy.membership(p[None], pl.method or "sweep")[0])
+        mu = float(fuzzy.membership(p[None], pl.method or DEFAULT_METHOD)[0])
         why = (f"it lies in the fuzzy boundary's band at α = {pl.alpha:g} (μ = {mu:.3g} there)")
     else:
         why = too_close(pl, pt, pl.free_boundary, f"the edge of the space free at α = {pl.alpha:g}")
@@ -115,14 +117,14 @@ def alpha_needed(pl, fuzzy, p: np.ndarray) -> float | None:
     For a point of the crisp free space, μ is the largest α at which it is still outside the
     inner α-cut, so the disc fits in the inner α-cut from α = max μ over the disc on. μ is
     sampled where its largest values lie: on the disc's edge, densely and then more densely
-    about the largest samples, and where the sweep's α-cut corners cross the disc (each
+    about the largest samples, and where the α-cut's corners cross the disc (each
     moves along a line from its crisp vertex, and μ peaks narrowly about that line). With
     48 samples of the edge this missed by up to 0.24 on the real maps, and a disc of the
     radius alone put every answer too low by the 2 %. Exact at radius 0; else an estimate,
     not a bound: on the real maps the planner frees the point from within 0.01 of it, mostly
     a little below (GEOS's chords round corners nearer than radius × ``RADIUS_FACTOR``).
     """
-    method = pl.method or "sweep"
+    method = pl.method or DEFAULT_METHOD
     R = pl.radius * RADIUS_FACTOR
     if R == 0:
         # μ = 1 on the crisp boundary, which is free at α = 1 (the crisp map, edge included)
@@ -130,7 +132,7 @@ def alpha_needed(pl, fuzzy, p: np.ndarray) -> float | None:
     a = np.linspace(0, 2 * np.pi, EDGE_SAMPLES, endpoint=False)
     step = 2 * np.pi / EDGE_SAMPLES
     edge = fuzzy.membership(p + R * np.column_stack((np.cos(a), np.sin(a))), method)
-    inner = [p[None], corner_crossings(fuzzy, p, R)]
+    inner = [p[None], corner_crossings(fuzzy, p, R, method)]
     for frac, n in ((2 / 3, 32), (1 / 3, 16)):
         b = np.linspace(0, 2 * np.pi, n, endpoint=False)
         inner.append(p + frac * R * np.column_stack((np.cos(b), np.sin(b))))
@@ -148,12 +150,18 @@ def alpha_needed(pl, fuzzy, p: np.ndarray) -> float | None:
 EDGE_SAMPLES = 256
 
 
-def corner_crossings(fuzzy, p: np.ndarray, R: float) -> np.ndarray:
-    """Where the sweep's inner α-cut corners, moving from α = 0 to α = 1, last lie in the disc
-    of radius ``R`` about ``p``: the point of each corner's path (a segment from its place at
-    α = 0 to its crisp vertex) nearest the crisp vertex within the disc. (k, 2)."""
-    v, _ = fuzzy.offset_vertices(1.0)  # the crisp vertices
-    w, _ = fuzzy.offset_vertices(0.0)
+def corner_crossings(fuzzy, p: np.ndarray, R: float, method: str = DEFAULT_METHOD) -> np.ndarray:
+    """Where the inner α-cut corners of ``method``, moving from α = 0 to α = 1, last lie in the
+    disc of radius ``R`` about ``p``: the point of each corner's path (a segment from its place at
+    α = 0 to its crisp vertex) nearest the crisp vertex within the disc. (k, 2). The safe cut's
+    corners move along its stored directions (``safe_cut.corner_paths``); the exact cut's, and
+    the safe cut's with several functions, are taken as the thesis's (μ is sampled there too)."""
+    paths = safe_cut.corner_paths(fuzzy) if method == "safe" else None
+    if paths is None:
+        v, _ = fuzzy.offset_vertices(1.0)  # the crisp vertices
+        w, _ = fuzzy.offset_vertices(0.0)
+    else:
+        v, w = paths
     d, f = w - v, v - p
     a = np.einsum("ij,ij->i", d, d)
     b = 2 * np.einsum("ij,ij->i", f, d)
@@ -176,7 +184,7 @@ RADIUS_FRACTIONS = (0.75, 0.5, 0.25, 0.0)
 
 def connecting(pl, s: np.ndarray, g: np.ndarray, planner) -> str:
     """A hint for a NoConnectionError: the nearest settings, trying α in steps of ALPHA_STEP
-    above the planner's (same radius) and the radius cut to RADIUS_FRACTIONS of its own (same α),
+    above the planner's and then 1 (same radius) and the radius cut to RADIUS_FRACTIONS of its own (same α),
     at which start and goal lie in one piece of the safe region; "" if none does or the planner
     has no fuzzy map. ``planner(fuzzy, α, radius, method)`` makes the planners (``plan.planner``,
     which keeps them with the map: a plan at the hinted setting reuses its α-cut and shrink)."""
@@ -193,8 +201,9 @@ def connecting(pl, s: np.ndarray, g: np.ndarray, planner) -> str:
 
     a0 = pl.alpha or 0.0
     hints = []
-    for a in np.arange(a0 + ALPHA_STEP, 1.0 + 1e-9, ALPHA_STEP):
-        a = float(min(1.0, round(a, 6)))
+    # the steps above α, and α = 1 (the crisp map) last when the steps do not land on it
+    steps = [float(round(a, 6)) for a in np.arange(a0 + ALPHA_STEP, 1.0 - 1e-9, ALPHA_STEP)]
+    for a in steps + ([1.0] if a0 < 1 else []):
         if joined(a, pl.radius):
             hints.append(f"at α = {a:g} (radius {pl.radius:g}) they are joined")
             break

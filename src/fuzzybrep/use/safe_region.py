@@ -16,7 +16,7 @@ import shapely
 
 from ..brep import LARGEST, BRepMap
 from ..errors import PlanError
-from ..fuzzy.map import METHODS, FuzzyBRepMap, check_alpha
+from ..fuzzy.map import DEFAULT_METHOD, FuzzyBRepMap, check_alpha, check_method
 from ..geometry import polygonal
 
 #: segments per quarter circle where the radius shrink rounds an obstacle's corner
@@ -38,7 +38,7 @@ EXACT_CUT_QUAD_SEGS = 8
 RELATIVE_TOLERANCE = 1e-9
 
 
-def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geometry:
+def free_space(source, alpha: float = 0.0, method: str = DEFAULT_METHOD) -> shapely.Geometry:
     """The space free at confidence α: a fuzzy map's inner α-cut; a crisp map or a Shapely
     (Multi)Polygon as it is (α and method do not apply to them, but a bad one is refused).
 
@@ -49,6 +49,7 @@ def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geo
     distance more generous than circles (2 mm for a TME of 0.2 m).
     """
     applies(source, alpha, method)
+    method = check_method(method)
     if isinstance(source, FuzzyBRepMap):
         check_size(source.crisp_geometry, source.unit)
         if method == "exact":
@@ -62,13 +63,14 @@ def free_space(source, alpha: float = 0.0, method: str = "sweep") -> shapely.Geo
     raise TypeError(f"cannot plan in a {type(source).__name__}: give a FuzzyBRepMap, a BRepMap or a Shapely polygon")
 
 
-def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "sweep") -> shapely.Geometry:
+def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = DEFAULT_METHOD) -> shapely.Geometry:
     """Where the centre of a round robot of ``radius`` may go: the free space at confidence α
     (``free_space``) shrunk by the radius. Thesis 4.2: at α = 0 this is the inner bound of the
     support, "the space that the robot can navigate freely" at the highest confidence.
 
-    ``method``: ``sweep`` (default) uses the map's own α-cut, the thesis's single normal
-    vertex method; ``exact`` the Extension principle's (the crisp map buffered).
+    ``method``: ``safe`` (default) the conservative sweep, which never reaches into the exact
+    band; ``thesis`` (or ``sweep``) the thesis's single normal vertex method, whose cut does at
+    sharp corners; ``exact`` the Extension principle's (the crisp map buffered).
     """
     return shrink(free_space(source, alpha, method), check_radius(radius))
 
@@ -76,8 +78,7 @@ def safe_region(source, alpha: float = 0.0, radius: float = 0.0, method: str = "
 def applies(source, alpha, method: str) -> float | None:
     """α checked, for a fuzzy map; None for a crisp map or a polygon, where α does not apply (nor
     the method), though a bad α or method given for one is refused all the same."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    check_method(method)
     if isinstance(source, FuzzyBRepMap):
         return check_alpha(alpha)
     if alpha is not None:

@@ -4,11 +4,14 @@ The page carries the map as a JSON payload (``payload``) and draws it on a <canv
 script (``viewer.js`` beside this file): no library, no network. The payload holds what the
 thesis stores, not pictures: per vertex the crisp vertex (X, Y) and the direction (T, V) of its
 parametric line (Table 4.1; U = X − T, W = Y − V), per edge its kind, per vertex its FM index, and
-per membership function its d_in(α), d_out(α) sampled at ``levels`` + 1 values of α. The script
-reads an α-cut from the lines in O(n), as the thesis does, and draws it as the region the
-α-cut's edges sweep (docs/viewer.md); ``swept_cut`` is the same construction in Shapely, the
-reference the browser tests compare the page with. μ under the cursor is the sweep's μ
-(``FuzzyBRepMap.membership(points, "sweep")``) and the exact μ, both computed in the page.
+per membership function its d_in(α), d_out(α) sampled at ``levels`` + 1 values of α, and the
+method it draws (``safe``, the default, or ``thesis``). The script reads an α-cut in O(n), as the
+thesis does, and draws it as a region: for the thesis's sweep the region its α-cut's edges sweep,
+for the safe sweep its pieces (every edge's rectangle and every corner's fan, or every edge's
+stadium: ``safe_pieces``), both painted over the crisp free space (docs/viewer.md); ``swept_cut``
+is the same construction in Shapely, the reference the browser tests compare the page with. μ
+under the cursor is the method's μ (``FuzzyBRepMap.membership(points, method)``) and the exact μ,
+both computed in the page.
 """
 
 from __future__ import annotations
@@ -34,6 +37,8 @@ FORMAT = "fuzzybrep-viewer"
 VERSION = 1
 #: default slider positions: α = 0, 0.01, ..., 1
 DEFAULT_SLIDER_LEVELS = 101
+#: the α-cut methods the page draws (the exact one is GEOS's buffers, not read from the map)
+PAGE_METHODS = ("safe", "thesis")
 #: d(α) is sampled at least this finely, so that μ read back from it is good to ~1e-3
 _MIN_TABLE_STEPS = 1000
 
@@ -75,12 +80,15 @@ def _deltas(v: np.ndarray, starts: np.ndarray) -> list[int]:
 
 
 def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = None, *, name: str = "map",
-            slider_levels: int = DEFAULT_SLIDER_LEVELS) -> dict:
+            slider_levels: int = DEFAULT_SLIDER_LEVELS, method: str = "safe") -> dict:
     """The JSON the page draws from. Coordinates are integers in units of ``q`` (a millimetre
     for maps in metres), T and V in q/10, headings in milliradians; vertices and poses are
     delta-coded (within each ring, along the trajectory)."""
     if not (isinstance(slider_levels, int) and 2 <= slider_levels <= 1001):
         raise ValueError(f"the α slider needs 2 to 1001 levels, got {slider_levels!r}")
+    method = {"sweep": "thesis"}.get(method, method)
+    if method not in PAGE_METHODS:
+        raise ValueError(f"the page draws the α-cuts of {' or '.join(PAGE_METHODS)}, not {method!r}")
     crisp, table = fuzzy.crisp, fuzzy.table
     x0, y0, x1, y1 = fuzzy.crisp_geometry.bounds
     q = coordinate_quantum(crisp.unit, max(x1 - x0, y1 - y0))
@@ -118,6 +126,8 @@ def payload(fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = No
         "kind": "".join(map(str, np.concatenate([r.kinds for r in crisp.rings]).tolist())),
         "fm": int(fm[0]) if (fm == fm[0]).all() else fm.tolist(),
         "functions": functions,
+        "method": method,
+        "safe": {"uniform": fuzzy.safe["function"] is not None},
         "levels": steps,
         "slider": slider_levels,
         "poses": None,
@@ -156,11 +166,11 @@ def html_document(data: dict, title: str | None = None) -> str:
 
 
 def write_html(out: str | os.PathLike, fuzzy, poses: np.ndarray | None = None, path: np.ndarray | None = None, *,
-               name: str = "map", slider_levels: int = DEFAULT_SLIDER_LEVELS) -> int:
+               name: str = "map", slider_levels: int = DEFAULT_SLIDER_LEVELS, method: str = "safe") -> int:
     """Write the viewer page atomically; returns bytes written. MapFileError naming ``out`` for a
     map whose coordinates the page cannot hold (``compact.to_quanta``)."""
     try:
-        data = payload(fuzzy, poses, path, name=name, slider_levels=slider_levels)
+        data = payload(fuzzy, poses, path, name=name, slider_levels=slider_levels, method=method)
     except FormatLimitError as e:
         raise MapFileError(out, f"cannot write the viewer: {e}") from None
     return write_atomic(out, html_document(data).encode("utf-8"))
@@ -180,19 +190,92 @@ def band_quads(fuzzy, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     return free, obstacle
 
 
-def swept_cut(fuzzy, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
-    """(inner, outer) of the α-cut as the page draws them: the crisp free space minus the hulls
-    of the free-side bands, and plus the hulls of the other bands (docs/viewer.md).
+def safe_pieces(fuzzy, alpha: float) -> tuple[list, list]:
+    """(free, obstacle): the convex polygons the page paints for the safe sweep's α-cut, as
+    (k, 2) arrays: with one symmetric function every edge's rectangle of height d(α) on each side
+    and, on the outer side of every corner's turn, the fan of tangent segments (at most 60° each)
+    round the arc of radius d(α) (a disc round a spike, on both sides); otherwise every edge's
+    circumscribed stadium, on both sides. The inner α-cut is the crisp free space minus the free
+    pieces, the outer one plus the others: ``safe_sweep``'s rectangles and fans (Lemma 2), the
+    same regions as ``alpha_cut(α)``."""
+    from ..fuzzy import safe_sweep as S
 
-    Equal to ``fuzzy.alpha_cut(alpha)`` up to slivers, since a proper polygon is its crisp
-    polygon minus (IN) or plus (OUT) the region its edges swept (docs/fuzzy.md).
+    s = fuzzy.stack
+    V, nxt = s["V"], s["next"]
+    prv = np.empty_like(nxt)
+    prv[nxt] = np.arange(len(nxt))
+    f = fuzzy.safe["function"]
+    free, obstacle = [], []
+    if f is None:
+        from ..fuzzy.safe_cut import edge_reach
+
+        r = edge_reach(fuzzy, alpha)
+        order = fuzzy.safe["V"]  # the stadiums do not depend on the rings' orientation
+        pts, st = S.stadiums(order, s["sizes"], r)
+        loops = np.split(pts, st[1:]) if len(st) else []
+        return loops, list(loops)
+    d_in, d_out = float(fuzzy.offset(f.d_in(alpha))), float(fuzzy.offset(f.d_out(alpha)))
+    own = s["own"][s["ring_of"]]
+    shell = s["shell"]
+    t = V[nxt] - V
+    t /= np.hypot(t[:, 0], t[:, 1])[:, None]
+    left = np.column_stack((-t[:, 1], t[:, 0]))
+    te = t[prv]
+    cross = te[:, 0] * t[:, 1] - te[:, 1] * t[:, 0]
+    dot = np.einsum("ij,ij->i", te, t)
+    psi = np.arctan2(cross, dot)
+    spike = (np.abs(cross) <= S._SPIKE) & (dot < 0)
+    for side in (1, -1):
+        d = d_in if side > 0 else d_out
+        if d <= 0:
+            continue
+        m = (side * own)[:, None] * left
+        to = (side > 0) == shell  # the free side
+        rect = np.stack((V, V[nxt], V[nxt] + d * m, V + d * m), axis=1)
+        for k in range(len(V)):
+            (free if to[k] else obstacle).append(rect[k])
+        me = (side * own)[:, None] * np.column_stack((-te[:, 1], te[:, 0]))
+        for k in np.flatnonzero((side * own * psi < 0) & ~spike):
+            n = int(S.fan_pieces(psi[k]))
+            half = psi[k] / (2 * n)
+            ang = (2 * np.arange(n) + 1) * half
+            c, sn = np.cos(ang), np.sin(ang)
+            chain = np.column_stack((c * me[k, 0] - sn * me[k, 1], sn * me[k, 0] + c * me[k, 1])) / np.cos(half)
+            mh = (side * own[k]) * left[k]
+            fan = np.vstack((V[k], V[k] + d * me[k], V[k] + d * chain, V[k] + d * mh))
+            (free if to[k] else obstacle).append(fan)
+    for k in np.flatnonzero(spike):
+        ang = (np.arange(2 * S.CAP_PIECES) + 0.5) * (np.pi / S.CAP_PIECES)
+        for side, d in ((1, d_in), (-1, d_out)):
+            if d > 0:
+                disc = V[k] + d * np.column_stack((np.cos(ang), np.sin(ang))) / np.cos(np.pi / (2 * S.CAP_PIECES))
+                free.append(disc)
+                obstacle.append(disc)
+    return free, obstacle
+
+
+def swept_cut(fuzzy, alpha: float, method: str = "safe") -> tuple[shapely.Geometry, shapely.Geometry]:
+    """(inner, outer) of the α-cut as the page draws them: the crisp free space minus the free
+    side's hulls (the thesis's band hulls, or the safe sweep's pieces), and plus the other side's
+    (docs/viewer.md).
+
+    Equal to ``fuzzy.alpha_cut(alpha, method)`` up to slivers: a proper polygon is its crisp
+    polygon minus (IN) or plus (OUT) the region its edges swept (docs/fuzzy.md), and the safe
+    cut is the crisp map minus (plus) its rectangles and fans (``safe_sweep``).
     """
-    free, obstacle = band_quads(fuzzy, alpha)
     crisp = fuzzy.crisp_geometry
+    if {"sweep": "thesis"}.get(method, method) == "safe":
+        free, obstacle = safe_pieces(fuzzy, alpha)
+        poly = lambda q: shapely.union_all(shapely.make_valid([shapely.Polygon(c) for c in q]))  # noqa: E731
+        inner = polygonal(shapely.difference(crisp, poly(free))) if free else crisp
+        outer = polygonal(shapely.union(crisp, poly(obstacle))) if obstacle else crisp
+        return inner, outer
+    free, obstacle = band_quads(fuzzy, alpha)
     hull = lambda q: shapely.union_all(shapely.convex_hull(shapely.multipoints(q)))  # noqa: E731
     inner = polygonal(shapely.difference(crisp, hull(free)))
     outer = polygonal(shapely.union(crisp, hull(obstacle)))
     return inner, outer
 
 
-__all__ = ["DEFAULT_SLIDER_LEVELS", "band_quads", "html_document", "payload", "read_path", "swept_cut", "write_html"]
+__all__ = ["DEFAULT_SLIDER_LEVELS", "PAGE_METHODS", "band_quads", "html_document", "payload", "read_path", "safe_pieces",
+           "swept_cut", "write_html"]

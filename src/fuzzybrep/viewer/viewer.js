@@ -8,9 +8,16 @@
  * docs/fuzzy.md, so self-intersecting offsets need no special case. Every hull is wound the same
  * way, so one nonzero fill paints their union.
  *
- * μ under the cursor: the sweep's μ (largest α whose band hull still holds the point, with the
- * side rules of FuzzyBRepMap.membership) and the exact μ (membership function of the signed
- * distance to the nearest crisp edge), both from a grid index of the edges. docs/viewer.md.
+ * The safe sweep (the default, D.method "safe"; fuzzy/safe_sweep.py) is drawn the same way: the
+ * inner α-cut is the crisp free space minus every free-side piece, the outer one plus every other
+ * piece, where a piece is an edge's rectangle of height d(α), or the fan that circumscribes the
+ * arc of radius d(α) at a corner's outer side (tangent segments of at most 60°), or, with several
+ * or sided functions, every edge's circumscribed stadium. Each piece is a convex polygon whose
+ * corners are crisp vertices moved d(α) along directions computed once from the vertices.
+ *
+ * μ under the cursor: the method's μ (largest α whose band hull or piece still holds the point,
+ * with the side rules of FuzzyBRepMap.membership) and the exact μ (membership function of the
+ * signed distance to the nearest crisp edge), both from a grid index of the edges. docs/viewer.md.
  */
 (function () {
   "use strict";
@@ -61,6 +68,85 @@
     reachV[i] = Math.max(f.support_in, f.support_out);
   }
 
+  // ------------------------------------------------------------------------- the safe sweep's pieces
+  const METHOD = D.method || "thesis"; // pages written before the safe sweep drew the thesis's
+  const SAFE = METHOD === "safe";
+  const uniform = !!(D.safe && D.safe.uniform);
+  const prev = new Int32Array(N);
+  for (let i = 0; i < N; i++) prev[next[i]] = i;
+  const orient = new Float64Array(nRings); // +1: the ring runs counter-clockwise
+  for (let r = 0; r < nRings; r++) {
+    let a2 = 0;
+    for (let i = ringStart[r]; i < ringStart[r] + sizes[r]; i++) a2 += X[i] * Y[next[i]] - X[next[i]] * Y[i];
+    orient[r] = a2 >= 0 ? 1 : -1;
+  }
+  /* Piece k: corners pBase[c] + d·(pUx[c], pUy[c]) for c in [pStart[k], pStart[k + 1]), counter-
+     clockwise; pSide +1 on the IN side of its edge's ring, −1 OUT, 0 both (stadiums and spike
+     discs); pEdge: the edge (or, for a fan, the edge its corner starts) the index finds it by. */
+  const pBase = [], pUx = [], pUy = [], pStart = [0], pSide = [], pEdge = [], pFree = [], pObst = [];
+  function addPiece(corners, side, edge, free, obst) {
+    let a2 = 0;
+    for (let c = 0; c < corners.length; c++) {
+      const [b, ux, uy] = corners[c], [b2, vx, vy] = corners[(c + 1) % corners.length];
+      a2 += (X[b] + ux) * (Y[b2] + vy) - (X[b2] + vx) * (Y[b] + uy);
+    }
+    if (a2 < 0) corners.reverse();
+    for (const [b, ux, uy] of corners) { pBase.push(b); pUx.push(ux); pUy.push(uy); }
+    pStart.push(pBase.length); pSide.push(side); pEdge.push(edge); pFree.push(free); pObst.push(obst);
+  }
+  const rot = (ux, uy, a, k) => [k * (Math.cos(a) * ux - Math.sin(a) * uy), k * (Math.sin(a) * ux + Math.cos(a) * uy)];
+  if (SAFE) {
+    const capK = 1 / Math.cos(Math.PI / 8);
+    for (let i = 0; i < N; i++) {
+      const j = next[i], p = prev[i], r = ringOf[i], o = orient[r], shell = shellRing[r] === 1;
+      let tx = X[j] - X[i], ty = Y[j] - Y[i];
+      const len = Math.hypot(tx, ty); tx /= len; ty /= len;
+      if (!uniform) { // the edge's stadium: caps of 4 tangent segments at b and at a
+        const corners = [];
+        for (let q = 0; q < 4; q++) {
+          const ang = (q + 0.5) * Math.PI / 4, c = Math.cos(ang) * capK, sn = Math.sin(ang) * capK;
+          corners.push([j, ty * c + tx * sn, -tx * c + ty * sn]);
+        }
+        for (let q = 0; q < 4; q++) {
+          const ang = (q + 0.5) * Math.PI / 4, c = Math.cos(ang) * capK, sn = Math.sin(ang) * capK;
+          corners.push([i, -ty * c - tx * sn, tx * c - ty * sn]);
+        }
+        addPiece(corners, 0, i, true, true);
+        continue;
+      }
+      for (const side of [1, -1]) { // the edge's rectangle on each side
+        const mx = -side * o * ty, my = side * o * tx;
+        addPiece([[i, 0, 0], [j, 0, 0], [j, mx, my], [i, mx, my]], side, i, (side > 0) === shell, (side > 0) !== shell);
+      }
+      let ex = X[i] - X[p], ey = Y[i] - Y[p];
+      const le = Math.hypot(ex, ey); ex /= le; ey /= le;
+      const cr = ex * ty - ey * tx, dt = ex * tx + ey * ty, psi = Math.atan2(cr, dt);
+      if (Math.abs(cr) <= 1e-12 && dt < 0) { // a spike: a disc round it, on both sides
+        const corners = [];
+        for (let q = 0; q < 8; q++) {
+          const ang = (q + 0.5) * Math.PI / 4;
+          corners.push([i, Math.cos(ang) * capK, Math.sin(ang) * capK]);
+        }
+        addPiece(corners, 0, i, true, true);
+        continue;
+      }
+      for (const side of [1, -1]) { // the fan on the outer side of the turn
+        if (!(side * o * psi < 0)) continue;
+        const mex = -side * o * ey, mey = side * o * ex;
+        // as safe_sweep.fan_pieces: 1 up to 60°, then an even number of at most 60° each
+        const a = Math.abs(psi), P = Math.PI / 3;
+        const k = a <= P * (1 + 1e-9) ? 1 : 2 * Math.ceil(a / (2 * P) - 1e-9), half = psi / (2 * k);
+        const corners = [[i, 0, 0], [i, mex, mey]];
+        for (let q = 0; q < k; q++) corners.push([i, ...rot(mex, mey, (2 * q + 1) * half, 1 / Math.cos(half))]);
+        corners.push([i, ...rot(mex, mey, psi, 1)]);
+        addPiece(corners, side, i, (side > 0) === shell, (side > 0) !== shell);
+      }
+    }
+  }
+  const nPieces = pSide.length;
+  const piecesOfEdge = Array.from({ length: N }, () => []);
+  for (let k = 0; k < nPieces; k++) piecesOfEdge[pEdge[k]].push(k);
+
   function sample(tab, a) {
     const p = a * K;
     let k = Math.floor(p + 1e-9);
@@ -82,6 +168,65 @@
     }
     const span = tab[lo] - tab[hi];
     return (lo + (span > 0 ? (tab[lo] - ax) / span : 0)) / K;
+  }
+
+  /* The distance piece k's corners move at α: its side's d(α) of its function (one for the whole
+     map), or for a stadium the largest d_in(α), d_out(α) of its edge's two vertices. */
+  function pieceDistance(k, a) {
+    const i = pEdge[k];
+    if (!uniform) {
+      const fi = fns[slot[i]], fj = fns[slot[next[i]]];
+      return Math.max(sample(fi.d_in, a), sample(fi.d_out, a), sample(fj.d_in, a), sample(fj.d_out, a));
+    }
+    const f = fns[slot[i]];
+    return pSide[k] > 0 ? sample(f.d_in, a) : sample(f.d_out, a);
+  }
+
+  function pieceCorners(k, d) {
+    const out = [];
+    for (let c = pStart[k]; c < pStart[k + 1]; c++) out.push(X[pBase[c]] + d * pUx[c], Y[pBase[c]] + d * pUy[c]);
+    return out;
+  }
+
+  /* Pieces at α, as Path2D (free side, obstacle side) and, when asked, as coordinate lists. */
+  function safeHulls(a, lists) {
+    const free = [], obst = [];
+    const out = lists ? { free: [], obstacle: [] } : null;
+    for (let k = 0; k < nPieces; k++) {
+      const d = pieceDistance(k, a);
+      if (!(d > 0)) continue;
+      const c = pieceCorners(k, d);
+      let txt = "M";
+      for (let m = 0; m < c.length; m += 2) txt += (m ? "L" : "") + text(c[m], c[m + 1]);
+      txt += "Z";
+      if (pFree[k]) { free.push(txt); if (out) out.free.push(c); }
+      if (pObst[k]) { obst.push(txt); if (out) out.obstacle.push(c); }
+    }
+    return { free: new Path2D(free.join("")), obst: new Path2D(obst.join("")), lists: out };
+  }
+
+  /* Whether (x, y) lies in the convex counter-clockwise polygon c (x0, y0, x1, y1, …). */
+  function inConvex(c, x, y) {
+    let size = 0;
+    for (let m = 2; m < c.length; m += 2) size = Math.max(size, Math.abs(c[m] - c[0]), Math.abs(c[m + 1] - c[1]));
+    const tol = 1e-12 * size * size;
+    for (let m = 0; m < c.length; m += 2) {
+      const n = (m + 2) % c.length;
+      if (cross(c[m], c[m + 1], c[n], c[n + 1], x, y) < -tol) return false;
+    }
+    return true;
+  }
+
+  /* Largest α at which piece k still holds (x, y) (NaN if not even at α = 0): pieces shrink as
+     α grows, so bisection finds it. */
+  function pieceLevel(k, x, y) {
+    if (!(pieceDistance(k, 0) > 0) || !inConvex(pieceCorners(k, pieceDistance(k, 0)), x, y)) return NaN;
+    let lo = 0, hi = 1;
+    for (let it = 0; it < 40; it++) {
+      const mid = 0.5 * (lo + hi), d = pieceDistance(k, mid);
+      if (d > 0 && inConvex(pieceCorners(k, d), x, y)) lo = mid; else hi = mid;
+    }
+    return lo;
   }
 
   // ------------------------------------------------------------------------- α-cuts
@@ -170,14 +315,15 @@
 
   /* Hulls per α, most recently used last; the support (α = 0) is drawn under every α-cut and is
      kept apart. A Path2D of a 20k-vertex map holds a few MB, hence the small cache. */
-  const support = bandHulls(0, false);
+  const cutHulls = (a, lists) => (SAFE ? safeHulls(a, lists) : bandHulls(a, lists));
+  const support = cutHulls(0, false);
   const cache = new Map();
   function hullsAt(a) {
     if (a === 0) return support;
     const key = a.toFixed(6);
     let h = cache.get(key);
     if (h) { cache.delete(key); cache.set(key, h); return h; }
-    h = bandHulls(a, false);
+    h = cutHulls(a, false);
     cache.set(key, h);
     if (cache.size > 12) cache.delete(cache.keys().next().value);
     return h;
@@ -221,6 +367,8 @@
   for (let i = 0; i < N; i++) {
     bx0 = Math.min(bx0, X[i]); bx1 = Math.max(bx1, X[i]);
     by0 = Math.min(by0, Y[i]); by1 = Math.max(by1, Y[i]);
+    // the safe sweep's fans and stadium caps reach up to 1/cos(30°) of the support
+    if (SAFE) reachV[i] /= Math.cos(Math.PI / 6);
     maxReach = Math.max(maxReach, reachV[i]);
   }
   const index = (function () {
@@ -330,10 +478,16 @@
       if (!ringInside.has(r)) ringInside.set(r, inRing(r, x, y));
       return ringInside.get(r);
     };
-    let sweep = 0, exact = 0;
+    let sweep = 0, exact = 0, safe = 0;
     const c = new Float64Array(8);
     for (const i of index.near(x, y)) {
       const r = ringOf[i], shell = shellRing[r] === 1;
+      // the safe sweep: inside the crisp map its free-side pieces, outside the others
+      for (const k of piecesOfEdge[i]) {
+        if (!(inCrisp ? pFree[k] : pObst[k])) continue;
+        const level = pieceLevel(k, x, y);
+        if (level > safe) safe = level;
+      }
       // the sweep: which bands may hold the point (FuzzyBRepMap._membership_sweep)
       for (let side = 1; side >= -1; side -= 2) {
         const freeSide = (side > 0) === shell;
@@ -359,7 +513,9 @@
         if (m > exact) exact = m;
       }
     }
-    return { sweep: Math.min(1, Math.max(0, sweep)), exact: Math.min(1, Math.max(0, exact)), inCrisp };
+    const clip = (v) => Math.min(1, Math.max(0, v));
+    // mu: the page's own method's μ (what it draws); sweep: the thesis's, safe: the safe sweep's
+    return { mu: clip(SAFE ? safe : sweep), sweep: clip(sweep), safe: clip(safe), exact: clip(exact), inCrisp };
   }
 
   // ------------------------------------------------------------------------- view
@@ -565,11 +721,11 @@
     if (!cursor) return;
     const [x, y] = toMap(cursor[0], cursor[1]);
     const m = muAt(x, y);
-    const where = m.sweep >= alpha && m.sweep > 0 ? "in the α-band (μ ≥ α)"
+    const where = m.mu >= alpha && m.mu > 0 ? "in the α-band (μ ≥ α)"
       : m.inCrisp ? "inside the inner α-cut (free at confidence α)" : "outside the outer α-cut";
     status.textContent =
-      `x ${fmt(x)}, y ${fmt(y)} ${unit} · μ = ${fmt(m.sweep)} (sweep) · exact μ = ${fmt(m.exact)} · ${where}`;
-    status.dataset.mu = String(m.sweep);
+      `x ${fmt(x)}, y ${fmt(y)} ${unit} · μ = ${fmt(m.mu)} (${METHOD}) · exact μ = ${fmt(m.exact)} · ${where}`;
+    status.dataset.mu = String(m.mu);
     status.dataset.muExact = String(m.exact);
   }
 
@@ -627,7 +783,8 @@
       const sx = canvas.clientWidth / 2, sy = canvas.clientHeight / 2, [x, y] = toMap(sx, sy);
       view.s *= f; view.ox = sx - view.s * x; view.oy = sy + view.s * y;
     },
-    hulls: (a) => bandHulls(a, true).lists,
+    method: METHOD,
+    hulls: (a) => cutHulls(a, true).lists,
     get redraws() { return redraws; },
     get scaleBar() { return Object.assign({}, scaleBar, { scale: view.s }); },
     get lastDrawMs() { return lastDrawMs; },
