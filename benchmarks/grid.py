@@ -37,6 +37,17 @@ LOGS = {"intel": "carmen/intel-corrected.log.gz", "aces": "carmen/aces-corrected
         "freiburg-079": "carmen/freiburg-079-corrected.log.gz"}
 
 
+def every_log(d: Path) -> dict[str, Path]:
+    """{name: path} of every CARMEN log in ``d/carmen`` (``*.log.gz`` and ``*.log``), named as
+    ``fuzzybrep build`` names its map (``intel-corrected.log.gz`` is intel): the benchmarks run on
+    whatever logs the folder holds, not a list of the ones we know."""
+    out = {}
+    for path in sorted((d / "carmen").glob("*.log*")):
+        if path.name.endswith((".log", ".log.gz")):
+            out[path.name.split(".log")[0].removesuffix("-corrected")] = path
+    return out
+
+
 #: where ``datasets`` looks, in order, for a folder holding carmen/ (said when it finds none)
 SEARCHED = "$FUZZYBREP_DATASETS, ../shared/datasets beside the checkout"
 
@@ -97,10 +108,7 @@ def best(fn, repeat: int) -> tuple[float, object]:
 def table(d: Path, resolution: float = 0.05, repeat: int = 3, naive_scans: int = 40) -> str:
     """The Markdown report for every CARMEN log under ``d``: sizes, free area, ratios (see module doc)."""
     rows = []
-    for name, rel in LOGS.items():
-        path = d / rel
-        if not path.is_file():
-            continue
+    for name, path in every_log(d).items():
         t_read, scans = best(lambda: read_scans(path), repeat)
         t_grid, g = best(lambda: occupancy_grid(scans, resolution), repeat)
         sub = scans[:naive_scans]

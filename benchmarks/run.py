@@ -63,7 +63,7 @@ from fuzzybrep.fuzzy.memory import compact_bytes
 from fuzzybrep.fuzzy.map import fuzzify  # noqa: E402
 from fuzzybrep.mapping.grid import occupancy_grid  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
-from grid import LOGS, SEARCHED, datasets  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
+from grid import SEARCHED, datasets, every_log  # noqa: E402  (the logs and where they are: one lookup, grid.py's)
 import peak  # noqa: E402
 import commands  # noqa: E402  (the whole commands, build against grid)
 from blocks import BlockError, demote_headings, write_block  # noqa: E402
@@ -142,6 +142,11 @@ def bench_log(name: str, path: Path, repeat: int, maps: dict | None = None) -> d
     keep = replace(cfg, evidence=replace(cfg.evidence, clear=False))
     ev_keep = E.evaluate_log(scans, 2, keep).exact.violations
     iou_all = E.free_space_iou(crisp.to_shapely(), grid)
+    # the robot's own track: where it stood must be free (issue 17), in the crisp map and in the
+    # default α-cut's safe region at α = 0
+    xy = np.array([s.pose[:2] for s in scans])
+    track = {"crisp": float(shapely.contains_xy(crisp.to_shapely(), xy[:, 0], xy[:, 1]).mean()),
+             "safe": float(shapely.contains_xy(fz.alpha_cut(0.0).inner, xy[:, 0], xy[:, 1]).mean())}
     print(f"[{name}] peak memory", file=sys.stderr, flush=True)
     peaks = peak.measure(path)
     mem = {
@@ -159,6 +164,7 @@ def bench_log(name: str, path: Path, repeat: int, maps: dict | None = None) -> d
         "area": crisp.area, "memory": mem,
         "all_scans": {"inside_shrunk": inside, "inside_came_and_went": went, "outside_grown": outside, "free_iou": iou_all,
                       "naive_union_inside_shrunk": naive_inside},
+        "poses_free": track,
         "held_out": ev.as_dict() | {"violations_keeping_every_obstacle": ev_keep}, "peak_memory": peaks,
     }
 
@@ -233,8 +239,7 @@ def safe_cut_rows(d: Path, maps: dict, repeat: int) -> list[dict]:
     import safe_cut
 
     rows = []
-    for path in sorted((d / "carmen").glob("*.log*")):
-        name = path.name.split("-corrected")[0].split(".")[0]
+    for name, path in every_log(d).items():
         fz = maps.get(name)
         if fz is None:
             print(f"[safe cut] building {name}", file=sys.stderr, flush=True)
@@ -288,6 +293,10 @@ def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict,
           "issue 5 asks, so they stay inside its free space although the map saw them. Held-out scans see "
           "such things too, and each is a violation there: a map that drops them cannot be expected to score "
           "much fewer held-out violations than this column."]
+    L += ["", "**The robot's own track** (every scan pose of the log)", "",
+          "| log | poses in the crisp free space | poses in the safe region at α = 0 (default α-cut) |", "|---|---:|---:|"]
+    for r in results:
+        L.append(f"| {r['log']} | {pct(r['poses_free']['crisp'])} | {pct(r['poses_free']['safe'])} |")
     L += ["", "**Held-out scans** (map from all scans but every second; the held-out endpoints closer than 5 m "
           "judged against the map's support at α = 0 with TME = 0.19913 m)", "",
           "| log | explained | violations | … of which on small isolated objects | … of which no kept scan saw within TME | … of which came and went | … of which neither | beyond | safe band (default): violations | thesis band: explained | thesis band: violations | free-space IoU | violations, every obstacle kept |",
@@ -345,7 +354,7 @@ def main(argv=None) -> int:
     ap.add_argument("--docs", help="also write the generated blocks of the documentation pages in this folder (docs.py)")
     args = ap.parse_args(argv)
     d = Path(args.datasets) if args.datasets else datasets()
-    logs = [(n, d / p) for n, p in LOGS.items() if (d / p).is_file()] if d else []
+    logs = list(every_log(d).items()) if d else []  # every log the folder holds (issue 17)
     if not logs:
         print(f"no CARMEN logs under {d or 'any of ' + SEARCHED}: nothing to measure", file=sys.stderr)
         return 1

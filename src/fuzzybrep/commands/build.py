@@ -119,7 +119,7 @@ def run(args) -> int:
     nbytes = fuzzy.save(args.out, poses=poses, metadata=meta)
     if args.plot:
         save_map_figure(args.plot, result.crisp, poses[:, :2], fuzzy=fuzzy,
-                        title=f"{Path(args.log).name}: fuzzy B-rep map ({mf.describe()})")
+                        title=f"{Path(args.log).name}: fuzzy B-rep map\n{mf.describe()}")  # two lines: a wide map's title fits
     seconds = time.perf_counter() - t0
     crisp = result.crisp
     pieces = len(crisp.regions) - 1
