@@ -187,3 +187,31 @@ def save_plan_figure(path: str | os.PathLike, crisp: BRepMap, safe, plans, title
         handles.append(Line2D([], [], color=c, lw=1.6, label=f"{p.mode} path, {p.length:.3g} {p.unit}"))
     ax.legend(handles=handles, loc="best", fontsize=8)
     _save(fig, path, dpi)
+
+
+def save_track_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray, confidence: np.ndarray,
+                      usable: np.ndarray, truth: np.ndarray | None = None, title: str | None = None,
+                      dpi: int = 150) -> None:
+    """A picture of a localised track on its map: the track coloured by confidence (the mean
+    membership grade of each scan's endpoints), poses not aligned to the map (``usable`` False:
+    lost, or before global localisation converged) in grey, and the true poses if known."""
+    plt = _agg()
+    from matplotlib.lines import Line2D
+
+    fig, ax = _map_figure(plt, crisp)
+    draw_map(ax, crisp, None, title)
+    handles = [Line2D([], [], color=OBSTACLE_EDGE, label="obstacle edge"),
+               Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
+    if truth is not None and len(truth):
+        ax.plot(truth[:, 0], truth[:, 1], "-", color="#6c757d", lw=0.8, alpha=0.7)
+        handles.append(Line2D([], [], color="#6c757d", label="the log's own poses"))
+    ax.plot(poses[:, 0], poses[:, 1], "-", color="#2a9d8f", lw=0.5, alpha=0.6)
+    ok = np.asarray(usable, bool)
+    sc = ax.scatter(poses[ok, 0], poses[ok, 1], c=confidence[ok], cmap="viridis", vmin=0, vmax=1, s=6, zorder=3)
+    if (~ok).any():
+        ax.scatter(poses[~ok, 0], poses[~ok, 1], c="#adb5bd", s=6, zorder=3)
+        handles.append(Line2D([], [], color="#adb5bd", marker="o", ls="", label="not aligned to the map"))
+    ax.plot(*poses[0, :2], "o", color="#2a9d8f", ms=6, mfc="none")
+    fig.colorbar(sc, ax=ax, shrink=0.6, label="confidence (mean μ of the endpoints)")
+    ax.legend(handles=handles, loc="best", fontsize=8)
+    _save(fig, path, dpi)

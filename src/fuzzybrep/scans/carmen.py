@@ -3,7 +3,10 @@
     FLASER n r_1 ... r_n  x y theta  odom_x odom_y odom_theta  timestamp host logger_timestamp
 
 Ranges in metres; the n beams spread evenly from -90° to +90° relative to the laser heading
-``theta``, both ends included; ``x y theta`` is the laser pose. Other message types (``ODOM``,
+``theta``, both ends included; ``x y theta`` is the laser pose (``Scan.pose``) and ``odom_x odom_y
+odom_theta`` the robot's pose by dead reckoning (``Scan.odometry``). In the shared SLAM-corrected
+logs both are the corrected pose; in a log ``fuzzybrep drift`` wrote (``write_carmen``) the first
+is the true pose and the second the drifting odometry. Other message types (``ODOM``,
 ``PARAM``, ``NEFF``, comments) carry no scan and are skipped. A range at or above the sensor's
 maximum means "no return". CARMEN logs do not record that maximum, so by default it is taken as
 the largest range in the log (81.83 m in the Intel log, 50 m in ACES): pass ``max_range`` when the
@@ -12,6 +15,8 @@ log has no no-return beams.
 
 from __future__ import annotations
 
+import gzip
+import io
 import os
 import re
 from pathlib import Path
@@ -20,6 +25,7 @@ import numpy as np
 
 from ..arrays import is_float
 from ..errors import ScanFormatError
+from ..formats.files import write_atomic
 from .report import BadLine, DamagedStream, ReadReport, matching_lines
 from .scan import Scan, even_bearings
 
@@ -30,8 +36,8 @@ SCAN_MESSAGES = ("FLASER",)
 _SCAN_LINE = re.compile(rb"(?m)^(?:" + b"|".join(re.escape(m.encode()) for m in SCAN_MESSAGES) + rb")(?![^\s])[^\n]*")
 
 
-def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
-    """(ranges, pose, timestamp) of one FLASER line; raises BadLine naming the field."""
+def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """(ranges, pose, odometry, timestamp) of one FLASER line; raises BadLine naming the field."""
     try:
         n = int(parts[1])
     except (IndexError, ValueError):
@@ -73,7 +79,7 @@ def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, float]:
         if not np.isfinite(v):
             raise BadLine(name, f"{tok!r} is not finite", True)
         vals.append(v)
-    return r, np.array(vals[:3]), vals[6]
+    return r, np.array(vals[:3]), np.array(vals[3:6]), vals[6]
 
 
 def read_carmen(
@@ -90,19 +96,19 @@ def read_carmen(
     path = Path(path)
     report = report if report is not None else ReadReport()
     skipped, errors = report.skipped, len(report.errors)  # a report may come with earlier reads in it
-    rows: list[tuple[np.ndarray, np.ndarray, float, int]] = []
+    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, float, int]] = []
     try:
         # streamed, with a bounded line length (report.matching_lines); other messages are passed over unread
         for lineno, line in matching_lines(path, _SCAN_LINE):
             try:
-                r, pose, t = _parse_flaser(line.decode("utf-8", errors="replace").split())
+                r, pose, odom, t = _parse_flaser(line.decode("utf-8", errors="replace").split())
             except BadLine as e:
                 err = e.error(path, lineno)
                 if not skip_bad:
                     raise err from None
                 report.skip(err)
                 continue
-            rows.append((r, pose, t, lineno))
+            rows.append((r, pose, odom, t, lineno))
     except DamagedStream as err:
         # a cut-off gzip stream, or a damaged block in it: everything before the damage is kept
         # only if the caller asked to skip
@@ -119,9 +125,41 @@ def read_carmen(
         max_range = max(float(r.max()) for r, *_ in rows)
     scans = []
     bearings: dict[int, np.ndarray] = {}
-    for r, pose, t, lineno in rows:
+    for r, pose, odom, t, lineno in rows:
         b = bearings.setdefault(len(r), even_bearings(len(r)))
-        scans.append(Scan(r, b, pose, t, max_range, f"{path.name}:{lineno}"))
+        scans.append(Scan(r, b, pose, t, max_range, f"{path.name}:{lineno}", odom))
     report.scans = len(scans)
     report.max_range = max_range
     return scans
+
+
+def write_carmen(path: str | os.PathLike, scans: list[Scan], header: str = "", host: str = "fuzzybrep") -> int:
+    """Write scans as a CARMEN log of FLASER lines (atomically; gzip when the name ends in .gz);
+    returns bytes written.
+
+    ``x y theta`` is each scan's ``pose``, ``odom_x odom_y odom_theta`` its ``odometry`` (its pose
+    when it has none), the timestamp its own, written twice (timestamp and logger timestamp).
+    Every scan's beams must spread evenly from -90° to +90°, both ends included, as FLASER
+    implies; ScanFormatError naming the file and the scan for any other, before anything is written. No-return beams are
+    written as they are (the reader takes the largest range for the sensor's maximum).
+    ``header``: comment lines to put first (each line gets its ``#``). Floats are written in full
+    (repr), so that the log reads back bit for bit.
+    """
+    out = io.StringIO()
+    for line in header.splitlines():
+        out.write(f"# {line}\n" if line else "#\n")
+    for k, s in enumerate(scans):
+        n = len(s.ranges)
+        expected = even_bearings(n)
+        if n < 2 or not np.allclose(s.bearings, expected, rtol=0, atol=1e-9):
+            raise ScanFormatError(path, None, f"cannot write scan {k + 1} ({s.source or 'no source'}) as a FLASER line: "
+                                              f"its {n} beams do not spread evenly from -90° to +90°; write CSV scans "
+                                              f"(.csv) instead")
+        odom = s.pose if s.odometry is None else s.odometry
+        t = repr(float(s.timestamp))
+        nums = " ".join(repr(v) for v in (*s.ranges.tolist(), *s.pose.tolist(), *odom.tolist()))
+        out.write(f"FLASER {n} {nums} {t} {host} {t}\n")
+    data = out.getvalue().encode()
+    if os.fspath(path).endswith(".gz"):
+        data = gzip.compress(data, mtime=0)
+    return write_atomic(Path(path), data)

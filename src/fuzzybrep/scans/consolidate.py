@@ -48,6 +48,7 @@ def consolidate(a: Scan, b: Scan, position_tol: float = np.inf, heading_tol: flo
         a.timestamp,
         min(a.max_range, b.max_range),
         a.source,
+        a.odometry,
     )
 
 

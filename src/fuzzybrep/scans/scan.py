@@ -21,6 +21,10 @@ class Scan:
     max_range a range at or above this means "no return": the beam saw nothing (unknown),
               not an obstacle.
     source    where the scan came from ("file:line"), for messages.
+    odometry  (3,) or None: the sensor pose by dead reckoning, when the log records it apart from
+              ``pose`` (CARMEN's odom_x odom_y odom_theta, the CSV format's odom_x, odom_y,
+              odom_theta columns). In a log ``fuzzybrep drift`` wrote, ``pose`` is the true pose
+              and ``odometry`` the drifting one; None: the log has one pose only.
     """
 
     ranges: np.ndarray
@@ -29,6 +33,7 @@ class Scan:
     timestamp: float = 0.0
     max_range: float = np.inf
     source: str = ""
+    odometry: np.ndarray | None = None
     _full: bool = field(default=False, repr=False, init=False)
 
     def __post_init__(self) -> None:
@@ -45,6 +50,13 @@ class Scan:
             raise ScanValueError(where, None, f"pose must be (x, y, heading), got {p.shape}")
         if not np.all(np.isfinite(p)):
             raise ScanValueError(where, None, f"pose is not finite: {p.tolist()}")
+        if self.odometry is not None:
+            o = np.ascontiguousarray(self.odometry, dtype=np.float64)
+            object.__setattr__(self, "odometry", o)
+            if o.shape != (3,):
+                raise ScanValueError(where, None, f"odometry must be (x, y, heading), got {o.shape}")
+            if not np.all(np.isfinite(o)):
+                raise ScanValueError(where, None, f"odometry is not finite: {o.tolist()}")
         if r.size == 0:  # nothing to map, and every step after would reduce an empty array
             raise ScanValueError(where, None, "a scan needs at least one beam")
         if not np.isfinite(self.timestamp):  # it orders the evidence: NaN is neither older nor newer
@@ -88,6 +100,48 @@ class Scan:
 def wrap(angle):
     """Angles into [-π, π)."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Poses a ⊕ b, both (n, 3) (or (3,)): b expressed in a's frame, returned in the world frame."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if a.ndim == 1 and b.ndim == 1:
+        return compose(a[None], b[None])[0]
+    a, b = np.broadcast_arrays(np.atleast_2d(a), np.atleast_2d(b))
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack((a[:, 0] + c * b[:, 0] - s * b[:, 1], a[:, 1] + s * b[:, 0] + c * b[:, 1],
+                            wrap(a[:, 2] + b[:, 2])))
+
+
+def relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Poses a⁻¹ ⊕ b, both (n, 3) (or (3,)): where b is seen from a."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if a.ndim == 1 and b.ndim == 1:
+        return relative(a[None], b[None])[0]
+    a, b = np.broadcast_arrays(np.atleast_2d(a), np.atleast_2d(b))
+    d = b[:, :2] - a[:, :2]
+    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
+    return np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], wrap(b[:, 2] - a[:, 2])))
+
+
+def decompose(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(rot1, trans, rot2), each (m,), of relative motions (m, 3): turn on the spot by rot1, drive
+    trans straight (negative: backwards), turn by rot2, as a differential drive would. A step
+    whose direction lies behind the robot is driven backwards, so that no step turns by more
+    than it must."""
+    steps = np.asarray(steps, np.float64).reshape(-1, 3)
+    dx, dy, dth = steps[:, 0], steps[:, 1], steps[:, 2]
+    trans = np.hypot(dx, dy)
+    phi = np.where(trans > 0, np.arctan2(dy, dx), 0.0)
+    back = np.abs(phi) > np.pi / 2
+    rot1 = np.where(back, wrap(phi + np.pi), phi)
+    trans = np.where(back, -trans, trans)
+    return rot1, trans, wrap(dth - rot1)
+
+
+def recompose(rot1: np.ndarray, trans: np.ndarray, rot2: np.ndarray) -> np.ndarray:
+    """(m, 3) relative motions of turn rot1, straight trans, turn rot2 (``decompose``'s inverse)."""
+    return np.column_stack((trans * np.cos(rot1), trans * np.sin(rot1), rot1 + rot2))
 
 
 def even_bearings(n: int, fov: float = np.pi) -> np.ndarray:

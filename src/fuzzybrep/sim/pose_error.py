@@ -23,24 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scans.scan import Scan, wrap
+from ..scans.scan import Scan, compose, relative, wrap
 from .simulate import SimRun
 
 MODELS = ("relocalised", "odometry", "true")
-
-
-def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Poses a ⊕ b, both (n, 3): b expressed in a's frame, returned in the world frame."""
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    return np.column_stack((a[:, 0] + c * b[:, 0] - s * b[:, 1], a[:, 1] + s * b[:, 0] + c * b[:, 1],
-                            wrap(a[:, 2] + b[:, 2])))
-
-
-def relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Poses a⁻¹ ⊕ b, both (n, 3): where b is seen from a."""
-    d = b[:, :2] - a[:, :2]
-    c, s = np.cos(a[:, 2]), np.sin(a[:, 2])
-    return np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], wrap(b[:, 2] - a[:, 2])))
+__all__ = ["MODELS", "compose", "relative", "departures", "relocalised_poses", "scan_poses", "with_poses",
+           "PoseErrors", "pose_errors"]
 
 
 def departures(run: SimRun) -> np.ndarray:
@@ -87,7 +75,7 @@ def scan_poses(run: SimRun, model: str) -> np.ndarray:
 
 def with_poses(scans: list[Scan], poses: np.ndarray) -> list[Scan]:
     """The scans, each at the given pose instead of its own."""
-    return [Scan(s.ranges, s.bearings, p, s.timestamp, s.max_range, s.source) for s, p in zip(scans, poses)]
+    return [Scan(s.ranges, s.bearings, p, s.timestamp, s.max_range, s.source, s.odometry) for s, p in zip(scans, poses)]
 
 
 @dataclass(frozen=True)

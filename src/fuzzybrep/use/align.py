@@ -1,0 +1,314 @@
+"""Scan-to-segments alignment: one scan's endpoints fitted to a set of line segments by robust
+Gauss-Newton on point-to-segment distances.
+
+``SegmentIndex`` holds the segments (a map's obstacle edges, or the edges of a map built so far)
+and a KD-tree (SciPy) over points sampled densely along them, so that the segment nearest to
+each of many points is one tree query plus a little arithmetic: the nearest sample names a
+segment whose distance is within half the sample spacing of the nearest segment's. Segments may
+carry a kind: an endpoint whose nearest segment is not one to match (a frontier, the limit of what
+the map saw) is left out of the fit, as unknown, rather than pulled onto it.
+
+``align(points, index, pose)`` minimises Σ ρ(d_i) over the sensor pose, d_i the distance from
+endpoint i (sensor frame, (n, 2)) to its nearest segment: each iteration finds the nearest
+segments, linearises d_i along the direction from the segment to the point (the segment's normal
+in its interior: point-to-line; the direction to its end beyond it) and solves the 3 × 3 normal
+equations with iteratively reweighted least squares. The weight of a residual is a triangular
+membership function of it, 1 − d/w for d < w, 0 beyond: with w the map's TME it is the map's own
+μ (a redescending kernel: an endpoint outside the support, a person or a door opened since, has no
+say). ``w`` starts wide and halves down to ``width`` (coarse to fine), so that a start a few
+decimetres and degrees off is still drawn in. An optional prior (a pose and its information
+matrix, from odometry) keeps the directions the scan does not constrain (along a corridor) where
+the prior puts them, which makes the result the maximum a posteriori pose; the endpoints' own
+error is taken as that of the triangular function of half-width ``width`` read as a distribution
+(standard deviation width/√6) for weighing them against the prior.
+
+Nothing here knows about maps or logs: arrays in, arrays out. ``use.localise`` aligns each scan to
+a fuzzy map's obstacle edges; building a map from scans aligned to the map of the scans before
+them (issue 22) needs only the same call on the segments of that map.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..scans.scan import wrap
+
+
+#: the wide kernels of ``align`` fit at least this many endpoints (a subsample), for at most
+#: this many iterations each
+COARSE_POINTS = 48
+KERNEL = "triangle"
+_KERNELS = {
+    "triangle": lambda d, w: np.clip(1.0 - d / w, 0.0, None),
+    "cauchy": lambda d, w: np.where(d < 2 * w, 1.0 / (1.0 + (2.0 * d / w) ** 2), 0.0),
+    "gauss": lambda d, w: np.where(d < 2 * w, np.exp(-0.5 * (2.0 * d / w) ** 2), 0.0),
+    "huber": lambda d, w: np.where(d < w, np.minimum(1.0, w / 3 / np.maximum(d, 1e-12)), 0.0),
+}
+COARSE_ITERATIONS = 3
+
+
+class SegmentIndex:
+    """Line segments a_j → b_j ((m, 2) each) and the nearest of them to any point.
+
+    spacing   samples along every segment at most this far apart (both ends included): the
+              nearest segment's distance is found to within spacing / 2.
+    kinds     (m,) small ints, optional (default 0); ``match`` says which kinds endpoints are
+              fitted to (default: kind 0 only). Segments of other kinds still compete for being
+              nearest: an endpoint nearest one of them is unknown, not matched.
+    """
+
+    def __init__(self, a: np.ndarray, b: np.ndarray, spacing: float = 0.02, kinds: np.ndarray | None = None,
+                 match: tuple[int, ...] = (0,)):
+        a = np.asarray(a, np.float64).reshape(-1, 2)
+        b = np.asarray(b, np.float64).reshape(-1, 2)
+        if a.shape != b.shape:
+            raise ValueError(f"{len(a)} segment starts but {len(b)} ends")
+        if not (math.isfinite(spacing) and spacing > 0):
+            raise ValueError(f"spacing must be a positive number, got {spacing!r}")
+        if not (np.isfinite(a).all() and np.isfinite(b).all()):
+            raise ValueError("segment ends must be finite")
+        kinds = np.zeros(len(a), np.int64) if kinds is None else np.asarray(kinds, np.int64).reshape(-1)
+        if len(kinds) != len(a):
+            raise ValueError(f"{len(a)} segments but {len(kinds)} kinds")
+        self.a, self.b, self.kinds, self.spacing = a, b, kinds, float(spacing)
+        self.matched = np.isin(kinds, np.asarray(match, np.int64))
+        d = b - a
+        length = np.hypot(d[:, 0], d[:, 1])
+        self.length = length
+        self.direction = np.divide(d, length[:, None], out=np.zeros_like(d), where=length[:, None] > 0)
+        # samples per segment: both ends and enough between them (all at once, no loop)
+        count = np.maximum(np.ceil(length / spacing).astype(np.int64), 1) + 1
+        seg = np.repeat(np.arange(len(a)), count)
+        first = np.cumsum(count) - count
+        t = (np.arange(count.sum()) - np.repeat(first, count)) / np.repeat(count - 1, count)
+        self.samples = a[seg] + t[:, None] * d[seg]
+        self.sample_segment = seg
+        self.tree = cKDTree(self.samples) if len(seg) else None
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    @property
+    def matched_length(self) -> float:
+        """Total length of the segments endpoints are fitted to."""
+        return float(self.length[self.matched].sum())
+
+    def nearest(self, points: np.ndarray, max_distance: float = np.inf):
+        """The nearest segment to each point (n, 2) within ``max_distance``.
+
+        Returns (segment (n,) int, -1 for none within reach; distance (n,), inf for none; foot
+        (n, 2), the nearest point of the segment; normal (n, 2), the unit direction from the foot
+        to the point, the segment's normal when the foot is interior, so that a point on the
+        segment still has one).
+        """
+        p = np.asarray(points, np.float64).reshape(-1, 2)
+        n = len(p)
+        seg = np.full(n, -1)
+        dist = np.full(n, np.inf)
+        foot = np.zeros((n, 2))
+        normal = np.zeros((n, 2))
+        if self.tree is None or n == 0:
+            return seg, dist, foot, normal
+        # a sample within max_distance + spacing/2 can name a segment within max_distance
+        _, k = self.tree.query(p, distance_upper_bound=max_distance + self.spacing / 2)
+        found = k < len(self.samples)
+        j = self.sample_segment[k[found]]
+        a, u, L = self.a[j], self.direction[j], self.length[j]
+        ap = p[found] - a
+        t = np.clip(ap[:, 0] * u[:, 0] + ap[:, 1] * u[:, 1], 0.0, L)
+        q = a + t[:, None] * u
+        e = p[found] - q
+        d = np.hypot(e[:, 0], e[:, 1])
+        # interior foot: the normal, turned to the point's side; beyond an end: towards the point
+        nrm = np.column_stack((-u[:, 1], u[:, 0]))
+        side = np.where(e[:, 0] * nrm[:, 0] + e[:, 1] * nrm[:, 1] < 0, -1.0, 1.0)
+        interior = (t > 0) & (t < L)
+        dirn = np.where(interior[:, None] | (d[:, None] == 0), nrm * side[:, None],
+                        e / np.where(d > 0, d, 1.0)[:, None])
+        ok = d <= max_distance
+        idx = np.flatnonzero(found)[ok]
+        seg[idx], dist[idx], foot[idx], normal[idx] = j[ok], d[ok], q[ok], dirn[ok]
+        return seg, dist, foot, normal
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """The result of ``align``.
+
+    pose        (3,) the sensor pose found (x, y, heading)
+    covariance  (3, 3) of the pose: the inverse of (JᵀWJ / σ̂² + Λ) at the solution, marginal over
+                the range offset when it was estimated; σ̂² the weighted residual variance, Λ the
+                prior's information (infinite when fewer than 4 endpoints matched and there is no
+                prior)
+    offset      the range offset used (estimated, when ``align`` was given ``offset_prior``)
+    offset_variance  its posterior variance (inf when not estimated)
+    information (3, 3) what the endpoints alone say about the pose: JᵀWJ / σ̂² at the solution,
+                without any prior (singular along what the scan does not constrain); a filter
+                fuses the alignment with it
+    matches     endpoints within ``support`` of a matched segment at the solution
+    unknown     endpoints whose nearest segment is of a kind not matched (a frontier)
+    points      endpoints given
+    rms         root mean square distance of the matched endpoints to their segments
+    mu          mean over the endpoints not unknown of 1 − d/support (0 beyond it): the mean
+                membership grade of the endpoints, with ``support`` the map's TME
+    iterations  Gauss-Newton iterations done
+    """
+
+    pose: np.ndarray
+    covariance: np.ndarray
+    offset: float
+    offset_variance: float
+    information: np.ndarray
+    matches: int
+    unknown: int
+    points: int
+    rms: float
+    mu: float
+    iterations: int
+
+    @property
+    def inlier_share(self) -> float:
+        """Matched endpoints over those not unknown (0 when every endpoint is unknown)."""
+        judged = self.points - self.unknown
+        return self.matches / judged if judged > 0 else 0.0
+
+
+def transform(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """Points (n, 2) in the frame of ``pose`` (3,), in the world frame."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.column_stack((pose[0] + c * points[:, 0] - s * points[:, 1], pose[1] + s * points[:, 0] + c * points[:, 1]))
+
+
+def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: float = 0.2, start_width: float = 0.8,
+          prior: tuple[np.ndarray, np.ndarray] | None = None, offset: float = 0.0,
+          offset_prior: tuple[float, float] | None = None, support: float | None = None, max_iterations: int = 30,
+          tolerance: float = 1e-3, min_matches: int = 4) -> Alignment:
+    """Align endpoints ``points`` (n, 2, sensor frame) to ``index``'s segments from ``pose`` (3,).
+
+    width         the final kernel width (the map's TME, or a share of it): endpoints farther than
+                  it from every matched segment have no weight; ``matches`` counts those within it.
+    start_width   the first kernel width; halved each time an iteration moves less than
+                  ``tolerance`` (metres; radians × 1 m for the heading), down to ``width``.
+    prior         (pose (3,), information (3, 3)) or None: a Gaussian prior on the pose, in the
+                  world frame (x, y, heading), added to the normal equations.
+    offset        a range offset: every endpoint is moved this far along its beam (the laser's
+                  systematic range error, and the map's boundary lying beyond the returns that
+                  made it: both are a constant offset between the scan and the map).
+    offset_prior  (mean, information) or None: estimate the offset as a fourth unknown with this
+                  Gaussian prior (a scan that sees walls on one side only cannot tell it from a
+                  step towards them); None: keep ``offset`` fixed.
+    support       the distance within which an endpoint counts as matched in the result, and
+                  over which its grade falls from 1 to 0 (default ``width``; the map's TME).
+    min_matches   fewer weighted endpoints than this: the pose is left where the prior (or the
+                  start) puts it.
+    """
+    p = np.asarray(points, np.float64).reshape(-1, 2)
+    rng_ = np.hypot(p[:, 0], p[:, 1])
+    beam = p / np.where(rng_ > 0, rng_, 1.0)[:, None]
+    x = np.array(pose, np.float64).reshape(3)
+    b = float(offset_prior[0]) if offset_prior is not None else float(offset)
+    npar = 4 if offset_prior is not None else 3
+    if prior is not None:
+        prior_pose, info = np.asarray(prior[0], np.float64), np.asarray(prior[1], np.float64)
+    w = max(start_width, width)
+    inv_var = 6.0 / (width * width)  # 1/σ² of the endpoints: the triangle of half-width ``width``
+    it = level_it = 0
+    while it < max_iterations:
+        it += 1
+        level_it += 1
+        # the wide kernels only bring the pose near: a subsample of the endpoints does that at
+        # a fraction of the cost (each halving of the kernel takes twice as many, weighted as many)
+        levels_left = max(0, math.ceil(math.log2(w / width - 1e-9))) if w > width else 0
+        stride = min(1 << levels_left, max(1, len(p) // COARSE_POINTS))
+        sl = slice(None, None, stride)
+        ps, bs = p[sl], beam[sl]
+        world = transform(ps + b * bs, x)
+        seg, d, foot, nrm = index.nearest(world, w)
+        use = (seg >= 0) & index.matched[np.maximum(seg, 0)]
+        weight = np.where(use, _KERNELS[KERNEL](d, w), 0.0)
+        use &= weight > 0
+        if use.sum() < min_matches and prior is None:
+            break
+        J, wu, du = _jacobian(world[use], x, nrm[use], bs[use], npar), weight[use] * (inv_var * stride), d[use]
+        Jw = J * wu[:, None]
+        H = J.T @ Jw
+        g = Jw.T @ du
+        if prior is not None:
+            e = x - prior_pose
+            e[2] = wrap(e[2])
+            H[:3, :3] += info
+            g[:3] += info @ e
+        if npar == 4:
+            H[3, 3] += offset_prior[1]
+            g[3] += offset_prior[1] * (b - offset_prior[0])
+        try:
+            step = -np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            break
+        x = x + step[:3]
+        x[2] = float(wrap(x[2]))
+        if npar == 4:
+            b += float(step[3])
+        small = math.hypot(step[0], step[1]) < tolerance and abs(step[2]) < tolerance
+        if w <= width and small:
+            break
+        if w > width and (small or level_it >= COARSE_ITERATIONS):
+            w = max(width, w / 2)
+            level_it = 0
+    return _result(p, beam, index, x, b, width, width if support is None else support, prior, offset_prior, it)
+
+
+def _jacobian(world: np.ndarray, x: np.ndarray, nrm: np.ndarray, beam: np.ndarray, npar: int) -> np.ndarray:
+    """d(distance)/d(x, y, heading[, offset]) of matched endpoints, the direction ``nrm`` held."""
+    arm = world - x[:2]
+    cols = [nrm[:, 0], nrm[:, 1], nrm[:, 1] * arm[:, 0] - nrm[:, 0] * arm[:, 1]]
+    if npar == 4:
+        c, s = math.cos(x[2]), math.sin(x[2])
+        cols.append(nrm[:, 0] * (c * beam[:, 0] - s * beam[:, 1]) + nrm[:, 1] * (s * beam[:, 0] + c * beam[:, 1]))
+    return np.column_stack(cols)
+
+
+def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray, b: float, width: float,
+            support: float, prior, offset_prior, iterations: int) -> Alignment:
+    """Matches, membership and covariance at the final pose."""
+    world = transform(p + b * beam, x)
+    seg, d, _, nrm = index.nearest(world, max(width, support))
+    found = seg >= 0
+    matched = found & index.matched[np.maximum(seg, 0)]
+    unknown = found & ~matched
+    # an endpoint nothing is near is unknown too when the nearest sample at any distance is
+    # a segment not matched (beyond a frontier): one more query, for the result only
+    far = ~found
+    if far.any() and (~index.matched).any() and index.tree is not None:
+        _, k = index.tree.query(world[far])
+        unknown[np.flatnonzero(far)[~index.matched[index.sample_segment[k]]]] = True
+    judged = len(p) - int(unknown.sum())
+    mu = float(np.clip(1 - d[matched] / support, 0, None).sum() / judged) if judged > 0 else 0.0
+    n = int((matched & (d <= support)).sum())
+    rms = float(np.sqrt(np.mean(d[matched & (d <= support)] ** 2))) if n else math.inf
+    npar = 4 if offset_prior is not None else 3
+    H = np.zeros((npar, npar))
+    inner = matched & (d < width)
+    if inner.sum() >= 4:
+        wt = 1 - d[inner] / width
+        J = _jacobian(world[inner], x, nrm[inner], beam[inner], npar)
+        sigma2 = max(float((wt * d[inner] ** 2).sum() / max(wt.sum() - npar, 1e-9)), 1e-12)
+        H = J.T @ (J * wt[:, None]) / sigma2
+    data = H[:3, :3].copy()
+    if prior is not None:
+        H[:3, :3] += np.asarray(prior[1], np.float64)
+    if npar == 4:
+        H[3, 3] += offset_prior[1]
+    cov = np.full((npar, npar), np.inf)
+    if inner.sum() >= 4 or prior is not None:
+        try:
+            cov = np.linalg.inv(H)
+        except np.linalg.LinAlgError:
+            pass
+    return Alignment(x, cov[:3, :3].copy(), b, float(cov[3, 3]) if npar == 4 else math.inf, data, n,
+                     int(unknown.sum()), len(p), rms, mu, iterations)
+
