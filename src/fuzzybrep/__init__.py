@@ -10,8 +10,8 @@ The package reads like that pipeline:
     mapping/   evidence, lines, scan polygons, union -> the crisp B-rep map (build_map); grid mapper
     fuzzy/     membership functions, the sweep, the exact cut, the fuzzy map (fuzzify)
     formats/   map file, compact map, GeoJSON, ROS map_server, SVG, exports
-    use/       planning, evaluation
-    sim/       worlds, simulator, ground truth, UMBmark, the demo
+    use/       planning, evaluation, localisation (sensor model, alignment, tracking, MCL)
+    sim/       worlds, simulator, ground truth, UMBmark, drifting odometry, the demo
     commands/  one module per CLI command;  viewer/  the HTML viewer
 
 The short form of the public API: ``from fuzzybrep import read_scans, build_map, fuzzify,
@@ -28,6 +28,8 @@ _LAZY = {
     "read_scans": "scans.read", "Scan": "scans.scan",
     "build_map": "mapping.build", "BuildConfig": "mapping.build",
     "fuzzify": "fuzzy.map", "FuzzyBRepMap": "fuzzy.map", "AlphaCut": "fuzzy.map",
+    "localise": "use.localise", "Track": "use.localise", "LocaliseConfig": "use.localise",
+    "DriftModel": "sim.drift", "drift_scans": "sim.drift",
     "BRepMap": "brep", "Region": "brep", "Ring": "brep", "OBSTACLE": "brep", "FRONTIER": "brep",
     **{e: "errors" for e in ("FuzzyBrepError", "GeometryError", "MapFileError", "MembershipFunctionError",
                              "ScanFormatError", "ScanValueError")},

@@ -29,6 +29,8 @@ COMMANDS = [
     "grid",
     "simulate",
     "umbmark",
+    "drift",
+    "localise",
 ]
 
 

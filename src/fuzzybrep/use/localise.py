@@ -127,11 +127,13 @@ class Track:
         return len(self.poses)
 
     def csv_text(self) -> str:
-        """The track as CSV: header time,x,y,theta,confidence, one row per scan in scan order;
-        floats in full (repr), so that it reads back exactly."""
-        rows = ["time,x,y,theta,confidence"]
-        for t, (x, y, th), c in zip(self.times.tolist(), self.poses.tolist(), self.confidence.tolist()):
-            rows.append(f"{t!r},{x!r},{y!r},{th!r},{c!r}")
+        """The track as CSV: header time,x,y,theta,confidence,status, one row per scan in scan
+        order; theta in radians, status a word of ``STATUS_NAMES``; floats in full (repr), so that
+        it reads back exactly."""
+        rows = ["time,x,y,theta,confidence,status"]
+        for t, (x, y, th), c, st in zip(self.times.tolist(), self.poses.tolist(), self.confidence.tolist(),
+                                        self.status.tolist()):
+            rows.append(f"{t!r},{x!r},{y!r},{th!r},{c!r},{STATUS_NAMES[st]}")
         return "\n".join(rows) + "\n"
 
     def write_csv(self, path: str | os.PathLike) -> int:
