@@ -108,7 +108,9 @@ class OdometryCalibration:
         """One pair: the wheel step and the motion between the two scans' alignments."""
         _, t, _ = decompose(wheel)
         t, th = float(t[0]), float(wheel[2])
-        dist, turn = math.hypot(measured[0], measured[1]), float(wrap(measured[2]))
+        # a turn of about half a revolution reads as +π or −π by chance (poses only know headings
+        # modulo 2π): the measured turn is taken as the one nearest the wheels'
+        dist, turn = math.hypot(measured[0], measured[1]), th + float(wrap(measured[2] - th))
         alpha, beta, gamma = self.params
         rd, rh = dist - alpha * abs(t), turn - beta * th - gamma * t
         if self.n > 10:
@@ -196,11 +198,17 @@ class Tracker:
         """Fuse the scan's alignment to the map into the predicted state (x⁻, P⁻); ``wheel``:
         the wheel step that led here, for the calibration."""
         cfg = self.cfg
-        weak = 0.1 * np.linalg.inv(Pp)  # holds what the scan does not see, hardly biases the rest
-        a = self.align_to_map(pts, xp, weak, self.start_width(Pp))
+        # the prediction's full information as the alignment's prior (a maximum a posteriori
+        # pose): along a corridor the scan's few across-the-corridor edges (door frames, a wall's
+        # kinks) give Gauss-Newton a tiny curvature, and a tenth of the prediction's information
+        # let it walk metres along it (the demo floor's ring corridor: 1.1 m from the true pose
+        # with a narrow kernel; 4 of 8 seeded runs lost; none with the full prior, and the real
+        # logs' errors unchanged within 1 mm)
+        prior_info = np.linalg.inv(Pp)
+        a = self.align_to_map(pts, xp, prior_info, self.start_width(Pp))
         R = self._measurement_cov(a)
         if self._doubtful(a, xp, Pp + R):
-            a = self._recover(pts, xp, Pp, weak, a)
+            a = self._recover(pts, xp, Pp, prior_info, a)
             R = self._measurement_cov(a)
             if self._doubtful(a, xp, Pp + R, 2 * cfg.max_mahalanobis):
                 self.x, self.P = xp, Pp
@@ -234,15 +242,15 @@ class Tracker:
             return True
         return mahalanobis(a.pose, xp, S) > (self.cfg.max_mahalanobis if limit is None else limit)
 
-    def _recover(self, pts, xp, Pp, weak, first: Alignment) -> Alignment:
+    def _recover(self, pts, xp, Pp, prior_info, first: Alignment) -> Alignment:
         """The best of: the first alignment, one from the prediction with the narrow kernel, and
         one from each of the best poses of a local search around the prediction."""
         from .mcl import local_search
 
-        cands = [first, self.align_to_map(pts, xp, weak, self.width)]
+        cands = [first, self.align_to_map(pts, xp, prior_info, self.width)]
         spread = 4.0 * (Pp + np.diag([self.width ** 2, self.width ** 2, math.radians(2.0) ** 2]))
         for pose in local_search(self.model, pts, xp, spread, self.rng, self.cfg.beams):
-            cands.append(self.align_to_map(pts, pose, weak, 2 * self.width))
+            cands.append(self.align_to_map(pts, pose, prior_info, 2 * self.width))
         near = [c for c in cands if mahalanobis(c.pose, xp, Pp + self._measurement_cov(c)) <= 2 * self.cfg.max_mahalanobis]
         return max(near or cands, key=lambda c: c.mu)
 
