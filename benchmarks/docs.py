@@ -58,6 +58,7 @@ PAGES = {
     "simulator.md": ("simulator:floor", "simulator:drift"),
     "export.md": ("export:yaml", "export:classes", "export:free-area", "export:nav2"),
     "viewer.md": ("viewer:intel",),
+    "localise.md": ("localise:results",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -297,9 +298,18 @@ def viewer_blocks(ctx: Context) -> dict[str, str]:
 
 # ----------------------------------------------------------------------------------------- run
 
+def localise_blocks(ctx: Context) -> dict[str, str]:
+    """docs/localise.md: tracking, the odometry baseline and global localisation on every log
+    (benchmarks/localise.py; its maps are from the even scans, so none of run.py's is reused)."""
+    import localise
+
+    return {"localise:results": localise.markdown(localise.bench(ctx.d, ctx.repeat), ctx.repeat)}
+
+
 MAKERS = {"grid.md": grid_blocks, "fuzzy.md": fuzzy_blocks, "demo.md": demo_blocks,
-          "simulator.md": simulator_blocks, "export.md": export_blocks, "viewer.md": viewer_blocks}
-NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md"}
+          "simulator.md": simulator_blocks, "export.md": export_blocks, "viewer.md": viewer_blocks,
+          "localise.md": localise_blocks}
+NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md"}
 
 
 def run(docs: Path, repeat: int = 3, maps: dict | None = None, only: list[str] | None = None,

@@ -185,3 +185,43 @@ def _converged(best, hyps: list) -> bool:
         if top - theirs < MARGIN:
             return False
     return True
+
+
+def track_particles(model: SensorModel, scans, odo: np.ndarray, start: np.ndarray, rng: np.random.Generator,
+                    particles: int = 500, beams: int = 60, distance_sigma: float = 0.08,
+                    heading_sigma: float = math.radians(3.0), floor: float = 0.01) -> np.ndarray:
+    """Pose tracking by a plain particle filter on the same sensor model, for comparison with
+    ``localise``'s matching (benchmarks/localise.py measures both): ``particles`` poses from
+    ``start``, each moved by the odometry's relative motion with Gaussian noise (σ
+    ``distance_sigma`` per metre moved plus ``floor`` in position; ``heading_sigma`` per metre and
+    per radian plus a tenth of it in heading), weighed by the likelihood of ``beams`` endpoints at
+    σ = TME/2 (tempered as the global search's), resampled (systematic) when the effective number
+    falls below half. Returns (S, 3): the weighted mean pose of every scan."""
+    from .localise import sensor_points
+
+    S = len(scans)
+    out = np.zeros((S, 3))
+    p = np.tile(np.asarray(start, np.float64), (particles, 1))
+    p[:, :2] += rng.normal(0.0, floor, (particles, 2))
+    logw = np.zeros(particles)
+    for k in range(S):
+        if k:
+            step = relative(odo[k - 1], odo[k])
+            ds, turn = math.hypot(step[0], step[1]), abs(float(step[2]))
+            st = distance_sigma * ds + floor
+            sh = heading_sigma * (ds + turn) + heading_sigma / 10
+            noise = np.column_stack((rng.normal(0, st, particles), rng.normal(0, st, particles),
+                                     rng.normal(0, sh, particles)))
+            p = compose(p, step + noise)
+        pts = subsample(sensor_points(scans[k]), beams)
+        temper = max(1.0, len(pts) / INDEPENDENT_BEAMS)
+        logw = logw + model.log_likelihood(p, pts, model.tme / 2) / temper
+        w = np.exp(logw - logw.max())
+        w /= w.sum()
+        out[k, :2] = w @ p[:, :2]
+        out[k, 2] = math.atan2(float(w @ np.sin(p[:, 2])), float(w @ np.cos(p[:, 2])))
+        if 1.0 / float(w @ w) < particles / 2:
+            u = (rng.random() + np.arange(particles)) / particles
+            p = p[np.minimum(np.searchsorted(np.cumsum(w), u), particles - 1)]
+            logw = np.zeros(particles)
+    return out
