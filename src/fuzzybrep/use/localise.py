@@ -51,6 +51,9 @@ class LocaliseConfig:
     """Settings of ``localise``; lengths in the map's unit (defaults for metres).
 
     kernel          the final kernel width of the alignment to the map, as a share of its TME
+                    (0.75: on freiburg-079's odd scans the heading RMSE is 1.02° at 0.5, 0.91°
+                    at 0.75, 0.89° at 1; intel, aces, fhw, orebro within 1 mm and 0.05° of
+                    each other; freiburg-campus 74.6 %, 75.5 % and 42 % of poses within TME)
     start_kernel    the widest first kernel (the prediction's own uncertainty sets it below this)
     trans_per_m, trans_floor          the wheel odometry's noise: σ of the position, per metre
                                       moved and at least
@@ -71,7 +74,7 @@ class LocaliseConfig:
     smooth          run the RTS smoother over the filter (False: the online filter's poses)
     """
 
-    kernel: float = 0.5
+    kernel: float = 0.75
     start_kernel: float = 0.8
     trans_per_m: float = 0.1
     trans_floor: float = 0.02
