@@ -337,6 +337,21 @@ def test_intel_global_localisation_converges_within_20_scans(intel_even_odd):
     assert any(f"converged at scan {track.converged_at + 1}" in n for n in track.notes)
 
 
+def test_particle_filter_baseline_tracks_intel(intel_even_odd):
+    # the tracker the benchmark compares matching with: it must track too, or the comparison is empty
+    from fuzzybrep.use.mcl import track_particles
+    from fuzzybrep.use.sensor_model import SensorModel
+
+    fz, odd = intel_even_odd
+    odd = odd[:60]
+    truth = np.array([s.pose for s in odd])
+    est = track_particles(SensorModel.from_map(fz), odd, np.array([s.odometry for s in odd]), truth[0],
+                          np.random.default_rng(0), particles=300)
+    e = np.hypot(*(est[:, :2] - truth[:, :2]).T)
+    odo = np.array([s.odometry for s in odd])
+    assert (e <= 2 * TME).mean() >= 0.9 and e.max() < np.hypot(*(odo[:, :2] - truth[:, :2]).T).max()
+
+
 @pytest.mark.skipif(not BIG, reason="full real-log localisation runs take minutes: set FUZZYBREP_BIG_LOGS=1 "
                                     "(make bench measures them: benchmarks/localise.py)")
 @pytest.mark.parametrize("name", ["aces", "freiburg"])

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scans.scan import Scan, compose, relative, wrap
-from .sensor_model import UNKNOWN, SensorModel
+from ..scans.scan import Scan, compose, relative
+from .sensor_model import UNKNOWN, SensorModel, sensor_points
 from .tracking import LOST, TRACKED, Tracker, rts_smooth
 
 #: ``Track.status`` of a pose: aligned to the map (TRACKED); predicted, because no alignment
@@ -146,12 +146,6 @@ class Track:
         return write_atomic(path, self.csv_text().encode())
 
 
-def sensor_points(scan: Scan) -> np.ndarray:
-    """(n, 2) the endpoints of a scan's returns in the sensor frame (no-return beams left out)."""
-    r = scan.returns
-    return np.column_stack((scan.ranges[r] * np.cos(scan.bearings[r]), scan.ranges[r] * np.sin(scan.bearings[r])))
-
-
 def laser_odometry(scans: list[Scan], odometry: np.ndarray | None = None) -> np.ndarray:
     """(S, 3) the laser's pose by odometry for every scan: ``odometry`` if given, else each scan's
     ``odometry`` (the log's dead reckoning), else its ``pose``. A log's odometry is the robot's:
@@ -169,15 +163,6 @@ def laser_odometry(scans: list[Scan], odometry: np.ndarray | None = None) -> np.
         mount = relative(odo[0], scans[0].pose)
         return compose(odo, np.broadcast_to(mount, odo.shape))
     return np.array([s.pose for s in scans]).reshape(-1, 3)
-
-
-def motion_prior(step: np.ndarray, cfg: LocaliseConfig) -> np.ndarray:
-    """(3, 3) covariance of the wheel odometry's error over one relative motion (x, y, heading),
-    in the robot's frame."""
-    ds = math.hypot(step[0], step[1])
-    st = cfg.trans_per_m * ds + cfg.trans_floor
-    sh = cfg.heading_per_m * ds + cfg.heading_per_rad * abs(step[2]) + cfg.heading_floor
-    return np.diag([st * st, st * st, sh * sh])
 
 
 def localise(fuzzy_map, scans: list[Scan], odometry: np.ndarray | None = None, *, start=None,

@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ..scans.scan import compose, relative, wrap
-from .sensor_model import SensorModel
+from .sensor_model import SensorModel, sensor_points
 
 PARTICLES_PER_M2 = 200.0
 MIN_PARTICLES = 2000
@@ -44,6 +44,15 @@ MIN_GRADE = 0.5
 #: hypotheses closer than this are one (the better kept); a rival is one farther than twice it
 SAME_RADIUS = 0.5
 SAME_HEADING = math.radians(10.0)
+
+
+def motion_prior(step: np.ndarray, cfg) -> np.ndarray:
+    """(3, 3) covariance of the wheel odometry's error over one relative motion (x, y, heading),
+    in the robot's frame."""
+    ds = math.hypot(step[0], step[1])
+    st = cfg.trans_per_m * ds + cfg.trans_floor
+    sh = cfg.heading_per_m * ds + cfg.heading_per_rad * abs(step[2]) + cfg.heading_floor
+    return np.diag([st * st, st * st, sh * sh])
 
 
 def subsample(points: np.ndarray, n: int) -> np.ndarray:
@@ -113,8 +122,6 @@ def global_localise(model: SensorModel, scans, odo: np.ndarray, cfg, rng: np.ran
     (None, and k = len(scans), when it never did), and the best hypothesis's pose (S, 3) for
     every scan before k (for every scan when it did not converge).
     """
-    from .localise import motion_prior, sensor_points
-
     S = len(scans)
     guesses = np.zeros((S, 3))
     hyps: list[_Hypothesis] = []
@@ -197,8 +204,6 @@ def track_particles(model: SensorModel, scans, odo: np.ndarray, start: np.ndarra
     per radian plus a tenth of it in heading), weighed by the likelihood of ``beams`` endpoints at
     σ = TME/2 (tempered as the global search's), resampled (systematic) when the effective number
     falls below half. Returns (S, 3): the weighted mean pose of every scan."""
-    from .localise import sensor_points
-
     S = len(scans)
     out = np.zeros((S, 3))
     p = np.tile(np.asarray(start, np.float64), (particles, 1))

@@ -27,6 +27,7 @@ import numpy as np
 import shapely
 
 from ..brep import FRONTIER, OBSTACLE, BRepMap
+from ..scans.scan import Scan
 from ..fuzzy.membership import MembershipTable
 from .align import SegmentIndex
 
@@ -48,6 +49,12 @@ def map_edges(crisp: BRepMap) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     kinds = np.concatenate([r.kinds for r in rings]).astype(np.int64)
     fm = np.concatenate([r.fm for r in rings]).astype(np.int64)
     return a, b, kinds, fm
+
+
+def sensor_points(scan: Scan) -> np.ndarray:
+    """(n, 2) the endpoints of a scan's returns in the sensor frame (no-return beams left out)."""
+    r = scan.returns
+    return np.column_stack((scan.ranges[r] * np.cos(scan.bearings[r]), scan.ranges[r] * np.sin(scan.bearings[r])))
 
 
 class SensorModel:

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from ..scans.scan import Scan, compose, decompose, recompose, relative, wrap
+from ..scans.scan import compose, decompose, recompose, relative, wrap
 from .align import Alignment, align
 from .sensor_model import SensorModel
 
