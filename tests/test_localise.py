@@ -91,6 +91,19 @@ def test_a_wrong_start_far_off_is_not_tracked_as_if_right(demo_floor):
     assert (eb <= TME).all() or bad.confidence.mean() < good.confidence.mean() - 0.1 or (bad.status == LOST).any()
 
 
+def test_a_scan_with_no_return_keeps_the_prediction(demo_floor):
+    # every beam of scan 5 saw nothing (no return is unknown, not a wall): that scan cannot be
+    # aligned, so it keeps the odometry's prediction and is marked lost; the run goes on tracked
+    fz, run = demo_floor
+    scans = list(run.scans[:12])
+    s = scans[5]
+    scans[5] = Scan(np.full(len(s.ranges), s.max_range), s.bearings, s.pose, s.timestamp, s.max_range, s.source)
+    track = localise(fz, scans, run.odometry_poses[:12], start=run.true_poses[0])
+    assert track.status[5] == LOST and (np.delete(track.status, 5) == TRACKED).all()
+    e, _ = errors(track, run.true_poses[:12])
+    assert (np.delete(e, 5) <= TME).all() and any("1 of 12 scans" in n for n in track.notes)
+
+
 def test_sensor_model_grades_from_the_map():
     # a 4 m × 2 m room, one side a frontier: μ is 1 on a wall, falls to 0 at TME, frontier unknown
     from fuzzybrep.brep import FRONTIER, OBSTACLE, BRepMap, Region, Ring
