@@ -43,6 +43,14 @@ def add_arguments(p) -> None:
     p.add_argument("--no-clear", action="store_true", help="obstacles are never cleared by later free rays (static world)")
     p.add_argument("--min-hole-area", type=non_negative, help="drop holes of at most this area (map unit², default 0: only those simplification leaves without area)")
     p.add_argument("--simplify", type=non_negative, help="vertex reduction tolerance (map unit, default TME/4)")
+    p.add_argument("--align", action="store_true",
+                   help="the log's poses are odometry that drifts: align every scan to the map of the scans before it "
+                        "and close loops (a pose graph) before mapping; the aligned poses and each scan's match quality "
+                        "go into the map file. Uses the log's odometry only (its odom fields where it has them)")
+    p.add_argument("--no-loops", action="store_true", help="with --align: no loop closure (scan-to-map alignment only)")
+    p.add_argument("--widen-tme", action="store_true",
+                   help="with --align: add the aligned poses' own error (90th percentile of the per-scan σ, at least "
+                        "2 cm) to TME, as the thesis adds the odometry's error to the laser's")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     add_mf_arguments(p, default_tme=DEFAULT_TME_M, unit="metres (build reads metric logs)")
 
@@ -67,6 +75,10 @@ def config_from_args(args):
         cfg = replace(cfg, min_hole_area=args.min_hole_area)
     if args.simplify is not None:
         cfg = replace(cfg, simplify=args.simplify)
+    if getattr(args, "align", False):
+        from ..mapping.align_scans import AlignConfig
+
+        cfg = replace(cfg, align=AlignConfig(loop_closure=not args.no_loops))
     return cfg
 
 
@@ -82,6 +94,10 @@ def run(args) -> int:
     from ._maps import mf_from_args
 
     console = Console(stderr=True, quiet=args.quiet)
+    if (args.no_loops or args.widen_tme) and not args.align:
+        from ..errors import FuzzyBrepError
+
+        raise FuzzyBrepError(f"{'--no-loops' if args.no_loops else '--widen-tme'} needs --align")
     cfg = config_from_args(args)
     check_outputs(args.out, args.plot, inputs=(args.log,))  # before the work, not after it
     if args.plot:
@@ -101,8 +117,32 @@ def run(args) -> int:
 
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=console, transient=True, disable=args.quiet or len(scans) < 200) as bar:
-        task = bar.add_task("scan polygons", total=len(scans))
-        result = build_map(scans, cfg, progress=lambda stage, done, total: bar.update(task, completed=done))
+        task = bar.add_task("align" if cfg.align else "scan polygons", total=len(scans))
+        result = build_map(scans, cfg, progress=lambda stage, done, total: bar.update(task, description=stage,
+                                                                                     completed=done))
+    scans = result.scans  # the aligned poses, with --align
+    align_notes = []
+    if result.alignment is not None:
+        from ..mapping.align_scans import pose_error
+
+        al = result.alignment
+        poor = al.poor()
+        align_notes.append(f"--align: {len(scans)} scans aligned from odometry, {al.loops} loop closure(s); "
+                           f"median match {100 * float(np.median(al.quality.inliers)):.0f} % of returns")
+        if len(poor):
+            share = len(poor) / len(scans)
+            align_notes.append(f"note: alignment poor for {len(poor)} scan(s) ({100 * share:.1f} %; first: "
+                               f"{scans[int(poor[0])].source or f'scan {int(poor[0]) + 1}'}): under "
+                               f"{100 * al.config.poor_inliers:.0f} % of the returns matched, or the position known "
+                               f"only to more than {al.config.poor_sigma:g} {cfg.unit} (a featureless corridor); the map "
+                               f"there is as good as the odometry" + ("" if args.widen_tme else "; --widen-tme widens TME"))
+        if args.widen_tme:
+            from ._maps import mf_from_args as _mf
+
+            widen = pose_error(al)
+            args.tme = cfg.tme + widen
+            mf, frontier_mf = _mf(args)
+            align_notes.append(f"--widen-tme: TME {cfg.tme:g} + {widen:.3f} (the aligned poses' error) = {args.tme:.3f} {cfg.unit}")
     for note in result.notes:  # what the build decided (the scans' order when their timestamps cannot give it)
         console.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
 
@@ -113,6 +153,8 @@ def run(args) -> int:
         "line_extractor": args.lines,
         "built_with": "fuzzybrep",
     }
+    if result.alignment is not None:
+        meta["alignment"] = result.alignment.metadata()
     t_fuzzy = time.perf_counter()
     fuzzy = fuzzify(result.crisp, mf, frontier_mf=frontier_mf)
     result.timings["fuzzify"] = time.perf_counter() - t_fuzzy
@@ -132,4 +174,6 @@ def run(args) -> int:
         + f", {seconds:.2f} s ({len(scans) / seconds:.0f} scans/s)",
         soft_wrap=True,  # one line to grep in a log: rich wraps at 80 columns where stderr is no terminal
     )
+    for line in align_notes:
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
     return 0

@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 import shapely
@@ -29,6 +29,9 @@ from ..scans.scan import Scan, named
 from . import evidence, union
 from .evidence import EvidenceConfig, Rays
 from .scan_polygon import PolygonConfig, ScanPolygon, scan_polygons
+
+if TYPE_CHECKING:
+    from .align_scans import AlignConfig, AlignResult
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,9 @@ class BuildConfig:
     #: than this are no map detail: the free space around them takes them in. None: TME
     pocket_width: float | None = None
     unit: str = "m"
+    #: align every scan to the map so far from its odometry (``mapping.align_scans``) and build
+    #: from the aligned poses; None: the scans' poses are taken as they are
+    align: "AlignConfig | None" = None
 
     @property
     def pocket_limit(self) -> float:
@@ -68,6 +74,8 @@ class BuildResult:
     clipped_beams: int = 0
     beams: int = 0
     notes: list[str] = field(default_factory=list)  #: what the build decided for the user (scan order)
+    alignment: "AlignResult | None" = None  #: the aligned poses and their quality, with ``BuildConfig.align``
+    scans: "Sequence[Scan] | None" = None  #: the scans at the poses the map was built from
 
     @property
     def seconds(self) -> float:
@@ -96,6 +104,13 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
     # newer evidence wins: timestamps that cannot say which is newer give way to the scans' order
     scans, order_note = in_scan_order(scans, named(scans))
     timer = _Timer()
+    alignment = None
+    if config.align is not None:
+        from .align_scans import align_scans, with_poses
+
+        with timer("align"):
+            alignment = align_scans(scans, config.align, progress=(lambda d, t: progress("align", d, t)) if progress else None)
+            scans = with_poses(scans, alignment.poses)
     with timer("beams"):
         beams = classify_all(scans, config.beams, config.polygon)
     with timer("evidence"):
@@ -130,7 +145,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp
         crisp = fill_pockets(crisp, config.pocket_limit) if ev is not None else crisp
     return BuildResult(crisp, polygons, timer.t, clipped, int(sum(len(s.ranges) for s in scans)),
-                       [order_note] if order_note else [])
+                       [order_note] if order_note else [], alignment, scans)
 
 
 def rays_of(scans: Sequence[Scan], beams) -> Rays:

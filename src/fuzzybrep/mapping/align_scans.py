@@ -1,0 +1,326 @@
+"""Poses from drifting odometry: every scan aligned to the map of the scans before it, and the
+drift left over closed at every loop (issue 22).
+
+Only the odometry's relative motion between consecutive scans is used, never a pose the log
+may hold from someone else's SLAM: the first scan sits at its odometry pose and every later one
+starts at its predecessor's aligned pose moved by the odometry step.
+
+Front end (``align_scans``, scan by scan):
+
+* the *local map* is the surface the last ``window`` key scans saw: each key scan's returns,
+  joined beam to beam into polylines wherever consecutive returns lie close enough to be one
+  surface (a jump in range is a gap, not a wall). A scan becomes a key scan once the robot has
+  moved ``key_distance`` or turned ``key_turn`` since the last one, so that a robot standing
+  still does not fill the window with copies of one view;
+* each scan's returns are aligned to those polylines by ``use.align.align`` (robust Gauss-Newton
+  on point-to-segment distances, coarse to fine), with the odometry step as a Gaussian prior
+  (``OdometryNoise``): where a corridor leaves a direction unconstrained, the odometry says where
+  the scan lies along it.
+
+Back end (loop closure, ``mapping.pose_graph``): every ``loop_every`` metres of travel the scan is
+also aligned to the key scans around the nearest place passed more than ``loop_travel`` metres
+ago (within ``loop_radius`` of the scan's current estimate); a match that explains most of the
+scan (``loop_inliers``) and constrains all three directions adds a loop edge to the pose graph
+whose other edges are the consecutive scans' relative poses. The graph is solved (SciPy sparse
+least squares, a robust kernel on the loop edges) whenever a new loop edge disagrees with the
+trajectory by more than ``loop_reoptimise`` metres, and once at the end; the local map then
+follows the corrected poses.
+
+Honesty: each scan gets a quality (``ScanQuality``): the share of its returns the map explains,
+and the standard deviation of its position along the direction the match constrained least (a
+corridor's length); ``AlignResult.poor`` lists the scans below ``poor_inliers`` or above
+``poor_sigma``, and the build's summary says how many there were.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..scans.scan import Scan, compose, relative, wrap
+from ..use.align import SegmentIndex, align
+from . import pose_graph
+
+
+#: the floor under a match's standard deviation (``_edge_information``): metres, radians
+POSE_FLOOR = 0.02
+HEADING_FLOOR = math.radians(0.5)
+
+
+@dataclass(frozen=True)
+class OdometryNoise:
+    """How far the odometry's step between two scans may be off, one standard deviation:
+    ``distance`` × the distance driven + ``floor`` in position, ``turn`` × the turn +
+    ``heading_per_m`` × the distance + ``heading_floor`` in heading (radians). The defaults are
+    twice the benchmark's systematic drift (5 % and 2°/m), so that a badly calibrated robot is
+    still inside the prior."""
+
+    distance: float = 0.10
+    floor: float = 0.02
+    turn: float = 0.05
+    heading_per_m: float = math.radians(4.0)
+    heading_floor: float = math.radians(1.0)
+
+    def information(self, step: np.ndarray, heading: float) -> np.ndarray:
+        """(3, 3) information of an odometry step (3,) in the world frame at ``heading``
+        (isotropic in position, so the frame does not matter)."""
+        d = math.hypot(step[0], step[1])
+        sp = self.distance * d + self.floor
+        st = self.turn * abs(step[2]) + self.heading_per_m * d + self.heading_floor
+        return np.diag([1 / sp ** 2, 1 / sp ** 2, 1 / st ** 2])
+
+
+@dataclass(frozen=True)
+class AlignConfig:
+    """Knobs of ``align_scans`` (metres and radians; module docstring)."""
+
+    window: int = 8  #: key scans in the local map
+    key_distance: float = 0.25
+    key_turn: float = math.radians(10.0)
+    max_range: float = 15.0  #: returns farther than this are not aligned nor mapped (too sparse)
+    max_points: int = 100  #: returns aligned per scan, evenly subsampled
+    join: float = 0.05  #: consecutive returns closer than join + 3 × beam spacing × range are one surface
+    width: float = 0.10  #: final kernel width of the match
+    start_width: float = 0.3
+    spacing: float = 0.05  #: SegmentIndex sample spacing
+    odometry: OdometryNoise = field(default_factory=OdometryNoise)
+    loop_closure: bool = True
+    loop_every: float = 2.0  #: try a loop closure every this many metres of travel
+    loop_travel: float = 8.0  #: a place passed at least this much travel ago is a loop candidate
+    loop_radius: float = 3.0  #: ... when within this distance of the scan's estimate
+    loop_window: int = 4  #: key scans either side of the candidate in the loop's local map
+    loop_growth: float = 0.05  #: the radius grows by this share of the travel since the last loop closed
+    loop_max_radius: float = 10.0
+    loop_start_width: float = 1.6
+    loop_inliers: float = 0.6  #: share of the scan the old place must explain
+    loop_sigma: float = 0.05  #: and its position known this well in every direction (m)
+    loop_reoptimise: float = 0.20
+    poor_inliers: float = 0.5
+    poor_sigma: float = 0.10
+
+
+@dataclass
+class ScanQuality:
+    """Per scan: ``inliers`` the share of its returns within the kernel of the map's surfaces
+    (1 for the first scan), ``sigma`` the largest positional standard deviation of the match
+    (metres; the odometry prior included, so a degenerate corridor shows as the odometry's
+    uncertainty), ``matches`` the returns matched."""
+
+    inliers: np.ndarray
+    sigma: np.ndarray
+    matches: np.ndarray
+
+
+@dataclass
+class AlignResult:
+    poses: np.ndarray  #: (S, 3) aligned sensor poses
+    quality: ScanQuality
+    loops: int  #: loop edges in the pose graph
+    optimisations: int
+    config: AlignConfig
+
+    def poor(self) -> np.ndarray:
+        """Indices of the scans whose alignment is poor (``AlignConfig.poor_*``)."""
+        q, c = self.quality, self.config
+        return np.flatnonzero((q.inliers < c.poor_inliers) | (q.sigma > c.poor_sigma))
+
+    def metadata(self) -> dict:
+        """What the map file keeps of the alignment (``metadata["alignment"]``)."""
+        q = self.quality
+        return {"method": "scan-to-map alignment from odometry, pose-graph loop closure",
+                "loops": int(self.loops), "poor_scans": int(len(self.poor())),
+                "inliers": np.round(q.inliers, 4).tolist(), "sigma": np.round(q.sigma, 4).tolist()}
+
+
+def odometry_of(scans: Sequence[Scan]) -> np.ndarray:
+    """(S, 3): each scan's odometry pose, its ``pose`` where the log records only one (a ROS bag
+    without a map frame, a CSV log without odometry columns: that pose is the odometry)."""
+    if all(s.odometry is not None for s in scans):
+        return np.array([s.odometry for s in scans], np.float64).reshape(-1, 3)
+    return np.array([s.pose for s in scans], np.float64).reshape(-1, 3)
+
+
+def with_poses(scans: Sequence[Scan], poses: np.ndarray) -> list[Scan]:
+    """The scans at ``poses`` (S, 3), their odometry kept."""
+    return [Scan(s.ranges, s.bearings, p, s.timestamp, s.max_range, s.source, s.odometry) for s, p in zip(scans, poses)]
+
+
+def pose_error(result: "AlignResult", share: float = 0.9) -> float:
+    """The aligned poses' own error, for widening TME (``fuzzybrep build --align --widen-tme``):
+    the ``share`` quantile of the per-scan σ, at least the 2 cm floor of ``_edge_information``
+    (what a match moves from the shared logs' corrected poses, median)."""
+    s = result.quality.sigma[np.isfinite(result.quality.sigma)]
+    return max(float(np.quantile(s, share)) if len(s) else 0.0, POSE_FLOOR)
+
+
+def scan_points(scan: Scan, max_range: float) -> tuple[np.ndarray, np.ndarray]:
+    """(points (n, 2) in the sensor frame, joinable (n - 1,) bool) of a scan's returns within
+    ``max_range``: joinable[i] says points i and i + 1 are consecutive beams."""
+    r, b = scan.ranges, scan.bearings
+    ok = scan.returns & (r <= max_range)
+    idx = np.flatnonzero(ok)
+    pts = np.column_stack((r[idx] * np.cos(b[idx]), r[idx] * np.sin(b[idx])))
+    return pts, np.diff(idx) == 1
+
+
+def surface_segments(points: np.ndarray, joinable: np.ndarray, beam_step: float, join: float) -> tuple[np.ndarray, np.ndarray]:
+    """(a, b) segments joining consecutive returns that lie on one surface: closer than join + 3 ×
+    beam_step × range (a surface seen at a grazing angle still joins; a jump in range does not)."""
+    if len(points) < 2:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    a, b = points[:-1], points[1:]
+    gap = np.hypot(*(b - a).T)
+    reach = join + 3 * beam_step * np.minimum(np.hypot(*a.T), np.hypot(*b.T))
+    keep = joinable & (gap <= reach)
+    return a[keep], b[keep]
+
+
+class _Surfaces:
+    """Every scan's surface segments in its own frame, made once, placed at a pose on demand."""
+
+    def __init__(self, scans: Sequence[Scan], cfg: AlignConfig):
+        self.points, self.segments = [], []
+        for s in scans:
+            p, j = scan_points(s, cfg.max_range)
+            step = float(np.median(np.diff(s.bearings))) if len(s.bearings) > 1 else 0.0
+            self.points.append(p)
+            self.segments.append(surface_segments(p, j, step, cfg.join))
+
+    def index(self, which: Sequence[int], poses: np.ndarray, spacing: float) -> SegmentIndex:
+        a, b = [], []
+        for k in which:
+            sa, sb = self.segments[k]
+            c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
+            R = np.array([[c, s], [-s, c]])
+            a.append(sa @ R + poses[k, :2])
+            b.append(sb @ R + poses[k, :2])
+        return SegmentIndex(np.vstack(a) if a else np.zeros((0, 2)), np.vstack(b) if b else np.zeros((0, 2)), spacing)
+
+
+def _subsample(p: np.ndarray, n: int) -> np.ndarray:
+    return p if len(p) <= n else p[np.linspace(0, len(p) - 1, n).round().astype(np.int64)]
+
+
+def _sigma(cov: np.ndarray) -> float:
+    c = cov[:2, :2]
+    if not np.isfinite(c).all():
+        return math.inf
+    return float(math.sqrt(max(np.linalg.eigvalsh(c).max(), 0.0)))
+
+
+def _edge_information(cov: np.ndarray, heading: float) -> np.ndarray:
+    """Information of a relative pose measured by a match with covariance ``cov`` (world frame),
+    in the frame of the pose it is measured from (``heading``). A floor of 2 cm and 0.5° (what a
+    match moves from the corrected poses of the shared logs, median) keeps an overconfident match
+    (its covariance says millimetres: hundreds of returns on one wall) from outweighing
+    everything else, and a chain of consecutive edges from holding out against a loop."""
+    c, s = math.cos(heading), math.sin(heading)
+    R = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    cov = np.where(np.isfinite(cov), cov, 0.0)
+    local = R @ cov @ R.T + np.diag([POSE_FLOOR ** 2, POSE_FLOOR ** 2, HEADING_FLOOR ** 2])
+    return np.linalg.inv(local)
+
+
+Progress = Callable[[int, int], None]
+
+
+def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odometry: np.ndarray | None = None,
+                progress: Progress | None = None) -> AlignResult:
+    """Aligned sensor poses (S, 3) of ``scans`` from their odometry (``odometry_of`` unless
+    given): module docstring."""
+    cfg = config
+    odo = odometry_of(scans) if odometry is None else np.asarray(odometry, np.float64).reshape(-1, 3)
+    n = len(scans)
+    if len(odo) != n:
+        raise ValueError(f"{n} scans but {len(odo)} odometry poses")
+    poses = np.zeros((n, 3))
+    if n == 0:
+        return AlignResult(poses, ScanQuality(np.zeros(0), np.zeros(0), np.zeros(0, np.int64)), 0, 0, cfg)
+    surf = _Surfaces(scans, cfg)
+    steps = relative(odo[:-1], odo[1:])
+    inliers, sigma, matches = np.ones(n), np.zeros(n), np.zeros(n, np.int64)
+    poses[0] = odo[0]
+    keys = [0]
+    travel = np.zeros(n)
+    # the pose graph: consecutive edges (k - 1 → k) and loop edges (j → k)
+    ei, ej, ez, einfo, robust = [], [], [], [], []
+    loops = optimisations = 0
+    last_try = last_loop = 0.0
+    index, index_keys = None, None
+    for k in range(1, n):
+        step = steps[k - 1]
+        travel[k] = travel[k - 1] + math.hypot(step[0], step[1])
+        guess = compose(poses[k - 1], step)
+        prior_info = cfg.odometry.information(step, poses[k - 1, 2])
+        pts = _subsample(surf.points[k], cfg.max_points)
+        window = tuple(keys[-cfg.window:])
+        if window != index_keys:
+            index, index_keys = surf.index(window, poses, cfg.spacing), window
+        if len(index) and len(pts) >= 4:
+            res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
+                        max_iterations=20)
+            poses[k] = res.pose
+            inliers[k], sigma[k], matches[k] = res.inlier_share, _sigma(res.covariance), res.matches
+            cov = res.covariance
+        else:
+            poses[k], inliers[k], matches[k] = guess, 0.0, 0
+            cov = np.linalg.inv(prior_info)
+            sigma[k] = _sigma(cov)
+        ei.append(k - 1)
+        ej.append(k)
+        ez.append(relative(poses[k - 1], poses[k]))
+        einfo.append(_edge_information(cov, poses[k - 1, 2]))
+        robust.append(False)
+        last = poses[keys[-1]]
+        if math.hypot(*(poses[k, :2] - last[:2])) >= cfg.key_distance or abs(wrap(poses[k, 2] - last[2])) >= cfg.key_turn:
+            keys.append(k)
+        if cfg.loop_closure and travel[k] - last_try >= cfg.loop_every and len(pts) >= 20:
+            last_try = travel[k]
+            radius = min(cfg.loop_radius + cfg.loop_growth * (travel[k] - last_loop), cfg.loop_max_radius)
+            closed = _try_loop(k, pts, poses, keys, travel, surf, cfg, radius)
+            if closed is not None:
+                j, pose_k, cov_k = closed
+                ei.append(j)
+                ej.append(k)
+                ez.append(relative(poses[j], pose_k))
+                einfo.append(_edge_information(cov_k, poses[j, 2]))
+                robust.append(True)
+                loops += 1
+                last_loop = travel[k]
+                if math.hypot(*(pose_k[:2] - poses[k, :2])) > cfg.loop_reoptimise:
+                    poses[: k + 1] = pose_graph.solve(poses[: k + 1], np.array(ei), np.array(ej), np.array(ez),
+                                                      np.array(einfo), np.array(robust))
+                    optimisations += 1
+                    index_keys = None  # the local map follows the corrected poses
+        if progress and (k % 50 == 0 or k == n - 1):
+            progress(k + 1, n)
+    if loops:
+        poses = pose_graph.solve(poses, np.array(ei), np.array(ej), np.array(ez), np.array(einfo), np.array(robust))
+        optimisations += 1
+    return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg)
+
+
+def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces,
+              cfg: AlignConfig, radius: float):
+    """(j, pose, covariance) of a loop match of scan k to the key scans around an old place, or None."""
+    keys_a = np.asarray(keys)
+    old = keys_a[(travel[keys_a] <= travel[k] - cfg.loop_travel)]
+    if not len(old):
+        return None
+    d = np.hypot(*(poses[old, :2] - poses[k, :2]).T)
+    if d.min() > radius:
+        return None
+    c = int(np.argmin(d))
+    j = int(old[c])
+    lo, hi = max(0, c - cfg.loop_window), c + cfg.loop_window + 1
+    index = surf.index(old[lo:hi].tolist(), poses, cfg.spacing)
+    if not len(index):
+        return None
+    res = align(pts, index, poses[k], width=cfg.width, start_width=max(cfg.loop_start_width, d.min() / 2),
+                max_iterations=30)
+    if res.inlier_share < cfg.loop_inliers or _sigma(res.covariance) > cfg.loop_sigma:
+        return None
+    return j, res.pose, res.covariance
