@@ -19,8 +19,8 @@ Front end (``align_scans``, scan by scan):
 
 Back end (loop closure, ``mapping.pose_graph``): every ``loop_every`` metres of travel the scan is
 also aligned to the key scans around the nearest place passed more than ``loop_travel`` metres
-ago (within ``loop_radius`` of the scan's current estimate); a match that explains most of the
-scan (``loop_inliers``) and constrains all three directions adds a loop edge to the pose graph
+ago (within what the drift since can explain of the scan's current estimate, ``_try_loop``); a match that explains most of the
+scan (``loop_inliers``) and fixes its heading and at least one direction of its position adds a loop edge to the pose graph
 whose other edges are the consecutive scans' relative poses. The graph is solved (SciPy sparse
 least squares, a robust kernel on the loop edges) whenever a new loop edge disagrees with the
 trajectory by more than ``loop_reoptimise`` metres, and once at the end; the local map then
@@ -77,8 +77,8 @@ class OdometryNoise:
 class AlignConfig:
     """Knobs of ``align_scans`` (metres and radians; module docstring)."""
 
-    window: int = 8  #: key scans in the local map
-    key_distance: float = 0.25
+    window: int = 16  #: key scans in the local map
+    key_distance: float = 0.5
     key_turn: float = math.radians(10.0)
     max_range: float = 15.0  #: returns farther than this are not aligned nor mapped (too sparse)
     max_points: int = 100  #: returns aligned per scan, evenly subsampled
@@ -90,13 +90,18 @@ class AlignConfig:
     loop_closure: bool = True
     loop_every: float = 2.0  #: try a loop closure every this many metres of travel
     loop_travel: float = 8.0  #: a place passed at least this much travel ago is a loop candidate
-    loop_radius: float = 3.0  #: ... when within this distance of the scan's estimate
+    loop_radius: float = 0.5  #: ... when within this distance of the scan's estimate (and more: ``_try_loop``)
     loop_window: int = 4  #: key scans either side of the candidate in the loop's local map
-    loop_growth: float = 0.05  #: the radius grows by this share of the travel since the last loop closed
+    loop_growth: float = 0.05  #: ... plus this share of the travel since (``_try_loop``)
     loop_max_radius: float = 10.0
+    #: an old place is a candidate this much farther than the drift reaches: the other side of a
+    #: corridor, or a room seen from its door, is the same place (the match's own correction
+    #: must still lie within the drift's reach)
+    loop_view: float = 2.0
     loop_start_width: float = 1.6
-    loop_inliers: float = 0.6  #: share of the scan the old place must explain
-    loop_sigma: float = 0.05  #: and its position known this well in every direction (m)
+    loop_inliers: float = 0.75  #: share of the scan the old place must explain
+    loop_sigma: float = 0.05  #: and its position known this well across the corridor at least (m)
+    loop_heading_sigma: float = math.radians(1.0)  #: and its heading this well
     loop_reoptimise: float = 0.20
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
@@ -211,7 +216,7 @@ def _sigma(cov: np.ndarray) -> float:
     return float(math.sqrt(max(np.linalg.eigvalsh(c).max(), 0.0)))
 
 
-def _edge_information(cov: np.ndarray, heading: float) -> np.ndarray:
+def _edge_information(cov: np.ndarray, heading: float, information: bool = False) -> np.ndarray:
     """Information of a relative pose measured by a match with covariance ``cov`` (world frame),
     in the frame of the pose it is measured from (``heading``). A floor of 2 cm and 0.5° (what a
     match moves from the corrected poses of the shared logs, median) keeps an overconfident match
@@ -219,9 +224,13 @@ def _edge_information(cov: np.ndarray, heading: float) -> np.ndarray:
     everything else, and a chain of consecutive edges from holding out against a loop."""
     c, s = math.cos(heading), math.sin(heading)
     R = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    floor = np.diag([POSE_FLOOR ** 2, POSE_FLOOR ** 2, HEADING_FLOOR ** 2])
+    if information:  # ``cov`` is an information matrix, possibly singular: (Ω⁻¹ + F)⁻¹ = Ω (I + F Ω)⁻¹
+        omega = R @ cov @ R.T
+        out = omega @ np.linalg.inv(np.eye(3) + floor @ omega)
+        return (out + out.T) / 2 + np.eye(3) * 1e-9
     cov = np.where(np.isfinite(cov), cov, 0.0)
-    local = R @ cov @ R.T + np.diag([POSE_FLOOR ** 2, POSE_FLOOR ** 2, HEADING_FLOOR ** 2])
-    return np.linalg.inv(local)
+    return np.linalg.inv(R @ cov @ R.T + floor)
 
 
 Progress = Callable[[int, int], None]
@@ -279,14 +288,13 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
             keys.append(k)
         if cfg.loop_closure and travel[k] - last_try >= cfg.loop_every and len(pts) >= 20:
             last_try = travel[k]
-            radius = min(cfg.loop_radius + cfg.loop_growth * (travel[k] - last_loop), cfg.loop_max_radius)
-            closed = _try_loop(k, pts, poses, keys, travel, surf, cfg, radius)
+            closed = _try_loop(k, pts, poses, keys, travel, surf, cfg, travel[k] - last_loop)
             if closed is not None:
                 j, pose_k, cov_k = closed
                 ei.append(j)
                 ej.append(k)
                 ez.append(relative(poses[j], pose_k))
-                einfo.append(_edge_information(cov_k, poses[j, 2]))
+                einfo.append(_edge_information(cov_k, poses[j, 2], information=True))
                 robust.append(True)
                 loops += 1
                 last_loop = travel[k]
@@ -304,16 +312,25 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
 
 
 def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces,
-              cfg: AlignConfig, radius: float):
-    """(j, pose, covariance) of a loop match of scan k to the key scans around an old place, or None."""
+              cfg: AlignConfig, since_loop: float):
+    """(j, pose, covariance) of a loop match of scan k to the key scans around an old place, or None.
+
+    The place is searched for, and the match accepted, only within what the drift since then
+    can explain: ``loop_radius`` + ``loop_growth`` × the travel since that place or since the last
+    loop closed, whichever is less (at most ``loop_max_radius``). A corridor matched one door
+    along, or another corridor like it, lies farther than that."""
     keys_a = np.asarray(keys)
     old = keys_a[(travel[keys_a] <= travel[k] - cfg.loop_travel)]
     if not len(old):
         return None
     d = np.hypot(*(poses[old, :2] - poses[k, :2]).T)
-    if d.min() > radius:
+    reach = np.minimum(cfg.loop_radius + cfg.loop_growth * np.minimum(travel[k] - travel[old], since_loop),
+                       cfg.loop_max_radius)
+    inside = d <= reach + cfg.loop_view
+    if not inside.any():
         return None
-    c = int(np.argmin(d))
+    c = int(np.argmin(np.where(inside, d, np.inf)))
+    radius = float(reach[c])
     j = int(old[c])
     lo, hi = max(0, c - cfg.loop_window), c + cfg.loop_window + 1
     index = surf.index(old[lo:hi].tolist(), poses, cfg.spacing)
@@ -321,6 +338,15 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
         return None
     res = align(pts, index, poses[k], width=cfg.width, start_width=max(cfg.loop_start_width, d.min() / 2),
                 max_iterations=30)
-    if res.inlier_share < cfg.loop_inliers or _sigma(res.covariance) > cfg.loop_sigma:
+    # what the match says, and only that: a corridor fixes the scan across it and its heading,
+    # not along it, and the edge's information says so (singular along the corridor), rather than
+    # the loop being dropped or trusted where it knows nothing
+    info = res.information
+    if res.inlier_share < cfg.loop_inliers or not np.isfinite(info).all():
         return None
-    return j, res.pose, res.covariance
+    ev = np.linalg.eigvalsh(info[:2, :2])
+    if ev.max() < cfg.loop_sigma ** -2 or info[2, 2] < cfg.loop_heading_sigma ** -2:
+        return None
+    if math.hypot(*(res.pose[:2] - poses[k, :2])) > radius:  # it slid into another corridor
+        return None
+    return j, res.pose, info
