@@ -21,7 +21,8 @@ benchmark's measure) beside it. Cost: the CPU seconds of ``build_map`` + ``fuzzi
 ...) ``--repeat`` times, the medians' ratio. Pictures of the aligned and corrected maps go to
 ``--plots`` (default out/align/) for a person to look at.
 
-With ``--docs DIR`` the results table replaces the ``align`` block of DIR/align.md.
+With ``--docs DIR`` the results table replaces the ``align:results`` block of DIR/align.md; ``make bench``
+(run.py --docs, through docs.py) writes that block too.
 """
 
 from __future__ import annotations
@@ -191,7 +192,7 @@ def main(argv=None) -> int:
     Path(args.json).write_text(json.dumps(rows, indent=1, default=float))
     if args.docs:
         try:
-            write_block(Path(args.docs) / "align.md", "align", md)
+            write_block(Path(args.docs) / "align.md", "align:results", md)
         except BlockError as e:
             print(f"{e}; not changed", file=sys.stderr)
             return 1

@@ -59,6 +59,7 @@ PAGES = {
     "export.md": ("export:yaml", "export:classes", "export:free-area", "export:nav2"),
     "viewer.md": ("viewer:intel",),
     "localise.md": ("localise:results",),
+    "align.md": ("align:results",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -306,10 +307,19 @@ def localise_blocks(ctx: Context) -> dict[str, str]:
     return {"localise:results": localise.markdown(localise.bench(ctx.d, ctx.repeat), ctx.repeat)}
 
 
+def align_blocks(ctx: Context) -> dict[str, str]:
+    """docs/align.md: ``build --align`` on every shared log with drifting odometry (benchmarks/align.py),
+    the maps' pictures in out/align/."""
+    import align
+
+    md, _ = align.run(ctx.d, ctx.repeat, plots=HERE.parent / "out" / "align")
+    return {"align:results": stamp(True) + "\n\n" + md}
+
+
 MAKERS = {"grid.md": grid_blocks, "fuzzy.md": fuzzy_blocks, "demo.md": demo_blocks,
           "simulator.md": simulator_blocks, "export.md": export_blocks, "viewer.md": viewer_blocks,
-          "localise.md": localise_blocks}
-NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md"}
+          "localise.md": localise_blocks, "align.md": align_blocks}
+NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md", "align.md"}
 
 
 def run(docs: Path, repeat: int = 3, maps: dict | None = None, only: list[str] | None = None,

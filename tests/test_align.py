@@ -1,0 +1,219 @@
+"""Issue 22: maps from drifting odometry (mapping.align_scans, mapping.pose_graph, build --align)."""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fuzzybrep import cli
+from fuzzybrep.mapping import pose_graph
+from fuzzybrep.mapping.align_scans import AlignConfig, align_scans, odometry_of, with_poses
+from fuzzybrep.mapping.build import BuildConfig, build_map
+from fuzzybrep.scans.scan import Scan, compose, relative, wrap
+from fuzzybrep.sim.drift import DriftModel, drift_scans
+
+
+def _rmse(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum((a[:, :2] - b[:, :2]) ** 2, axis=1))))
+
+
+# -- the pose graph ------------------------------------------------------------------------------
+
+def _square_loop(n_side: int = 10, side: float = 5.0) -> np.ndarray:
+    """True poses round a square, counter-clockwise, ending where they began."""
+    poses = []
+    for k in range(4):
+        th = k * math.pi / 2
+        start = np.array([[0, 0], [side, 0], [side, side], [0, side]][k], float)
+        for i in range(n_side):
+            p = start + (i * side / n_side) * np.array([math.cos(th), math.sin(th)])
+            poses.append((p[0], p[1], th))
+    poses.append((0.0, 0.0, 2 * math.pi))
+    p = np.array(poses)
+    p[:, 2] = wrap(p[:, 2])
+    return p
+
+
+def _drifted_chain(true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Odometry steps with a known drift (3 % long, 1.5° a step to the left) and the poses they chain to."""
+    steps = relative(true[:-1], true[1:])
+    steps = steps * [1.03, 1.03, 1.0] + [0.0, 0.0, math.radians(1.5)]
+    poses = [true[0]]
+    for s in steps:
+        poses.append(compose(poses[-1], s))
+    return steps, np.array(poses)
+
+
+def test_pose_graph_closes_a_loop_with_known_drift():
+    true = _square_loop()
+    steps, odo = _drifted_chain(true)
+    n = len(true)
+    assert np.hypot(*(odo[-1, :2] - true[-1, :2])) > 3.0  # the drift the loop has to close
+    info_odo = np.diag([1 / 0.05 ** 2, 1 / 0.05 ** 2, 1 / math.radians(2) ** 2])
+    i, j, z, info = list(range(n - 1)), list(range(1, n)), list(steps), [info_odo] * (n - 1)
+    # the loop: the last pose seen from the first is where it truly is, known well
+    i.append(0)
+    j.append(n - 1)
+    z.append(relative(true[0], true[-1]))
+    info.append(np.diag([1e4, 1e4, 1e5]))
+    solved = pose_graph.solve(odo, np.array(i), np.array(j), np.array(z), np.array(info))
+    assert np.array_equal(solved[0], odo[0])  # the first pose holds the frame
+    assert np.hypot(*(solved[-1, :2] - true[-1, :2])) < 0.05
+    assert abs(wrap(solved[-1, 2] - true[-1, 2])) < math.radians(1)
+    # the drift is spread over the loop, not dumped on its last edge
+    assert _rmse(solved, true) < 0.25 * _rmse(odo, true)
+    before = pose_graph.cost(odo, i, j, z, info)
+    assert pose_graph.cost(solved, i, j, z, info) < 0.01 * before
+
+
+def test_pose_graph_outvotes_a_false_loop_on_a_robust_edge():
+    true = _square_loop()
+    steps, odo = _drifted_chain(true)
+    n = len(true)
+    info_odo = np.diag([1 / 0.05 ** 2, 1 / 0.05 ** 2, 1 / math.radians(2) ** 2])
+    i, j, z, info, robust = list(range(n - 1)), list(range(1, n)), list(steps), [info_odo] * (n - 1), [False] * (n - 1)
+    # three true loops (last to first, and two across the square's corners) ...
+    for a, b in ((0, n - 1), (5, n - 6), (2, n - 3)):
+        i.append(a), j.append(b), z.append(relative(true[a], true[b])), info.append(np.diag([1e4, 1e4, 1e5]))
+        robust.append(True)
+    # ... and one that matched the wrong place, 2 m off
+    i.append(10), j.append(30), z.append(relative(true[10], true[30]) + [2.0, 0.0, 0.0]), info.append(np.diag([1e4, 1e4, 1e5]))
+    robust.append(True)
+    args = (np.array(i), np.array(j), np.array(z), np.array(info))
+    solved = pose_graph.solve(odo, *args, robust=np.array(robust))
+    plain = pose_graph.solve(odo, *args)
+    assert _rmse(solved, true) < 0.15
+    assert _rmse(plain, true) > 2 * _rmse(solved, true)  # without the kernel the false loop bends the square
+
+
+def test_pose_graph_rejects_an_edge_to_a_missing_pose():
+    p = np.zeros((3, 3))
+    with pytest.raises(ValueError, match="outside 0..2"):
+        pose_graph.solve(p, np.array([0]), np.array([3]), np.zeros((1, 3)), np.eye(3)[None])
+
+
+# -- a simulated floor with drifting odometry ------------------------------------------------------
+
+@functools.lru_cache(maxsize=1)
+def _demo_floor_run():
+    """The demo floor's route with a stop every metre, one 360° scan a stop, at the true poses,
+    with ``sim.drift``'s benchmark odometry (5 % of distance, 2°/m)."""
+    from fuzzybrep.sim.simulate import simulate_run
+    from fuzzybrep.sim.world import builtin_floor, builtin_route
+
+    run = simulate_run(builtin_floor(), builtin_route(spacing=1.0), seed=3)
+    scans = run.consolidated()
+    true = run.true_poses[::2]
+    at_true = with_poses(scans, true)
+    return true, drift_scans(at_true, DriftModel.benchmark(), seed=1)
+
+
+def test_align_recovers_the_demo_floors_poses_from_drifting_odometry():
+    true, drifted = _demo_floor_run()
+    odo = odometry_of(drifted)
+    assert np.allclose(odo[0], true[0])
+    assert _rmse(odo, true) > 1.0  # the drift --align has to undo
+    result = align_scans(drifted)
+    assert _rmse(result.poses, true) < 0.10
+    assert np.degrees(np.abs(wrap(result.poses[:, 2] - true[:, 2]))).max() < 2.0
+    assert result.loops >= 1  # the route is a ring: it comes home
+    assert len(result.quality.inliers) == len(true) and np.median(result.quality.inliers) > 0.8
+    # the log's own poses (the truth here) are never looked at: the same odometry with other
+    # poses gives the same result
+    moved = [Scan(s.ranges, s.bearings, s.pose + [5.0, -3.0, 1.0], s.timestamp, s.max_range, s.source, s.odometry)
+             for s in drifted]
+    assert np.allclose(align_scans(moved).poses, result.poses)
+
+
+def test_loop_closure_is_what_brings_the_ring_home():
+    true, drifted = _demo_floor_run()
+    with_loops = align_scans(drifted)
+    without = align_scans(drifted, AlignConfig(loop_closure=False))
+    assert without.loops == 0
+    end = lambda r: float(np.hypot(*(r.poses[-1, :2] - true[-1, :2])))  # noqa: E731
+    assert end(with_loops) < 0.1
+    assert end(with_loops) < end(without)
+
+
+def test_build_with_align_maps_from_the_aligned_poses():
+    true, drifted = _demo_floor_run()
+    r = build_map(drifted[:40], BuildConfig(align=AlignConfig()))
+    assert r.alignment is not None and r.scans is not None
+    assert np.allclose([s.pose for s in r.scans], r.alignment.poses)
+    plain = build_map(with_poses(drifted[:40], odometry_of(drifted[:40])))
+    assert plain.alignment is None
+    # the map from aligned poses is the map from the true poses, near enough; the odometry's is not
+    ref = build_map(with_poses(drifted[:40], true[:40])).crisp.to_shapely()
+    sym = lambda m: m.crisp.to_shapely().symmetric_difference(ref).area / ref.area  # noqa: E731
+    assert sym(r) < 0.5 * sym(plain)
+
+
+def test_poor_alignment_is_flagged():
+    """A scan that sees nothing the map saw (its returns all far beyond the rest) is poor."""
+    true, drifted = _demo_floor_run()
+    scans = list(drifted[:10])
+    s = scans[5]
+    scans[5] = Scan(np.full_like(s.ranges, 0.3), s.bearings, s.pose, s.timestamp, s.max_range, s.source, s.odometry)
+    result = align_scans(scans, AlignConfig(loop_closure=False))
+    assert 5 in result.poor()
+    assert result.quality.inliers[5] < 0.5
+    assert result.metadata()["poor_scans"] == len(result.poor())
+
+
+# -- the command --------------------------------------------------------------------------------
+
+def test_cli_build_align_writes_aligned_poses_and_quality(tmp_path, capsys):
+    from fuzzybrep.formats.mapfile import read_map
+    from fuzzybrep.scans.csvscans import write_csv
+
+    true, drifted = _demo_floor_run()
+    log = tmp_path / "drift.csv"
+    write_csv(log, drifted[:40])
+    out, plain_out = tmp_path / "aligned.json", tmp_path / "plain.json"
+    assert cli.main(["build", str(log), "--out", str(out), "--align", "--widen-tme"]) == 0
+    err = capsys.readouterr().err
+    assert "--align: 40 scans aligned from odometry" in err and "--widen-tme: TME" in err
+    m = read_map(out)
+    assert _rmse(m.poses, true[:40]) < 0.10
+    al = m.metadata["alignment"]
+    assert len(al["inliers"]) == len(al["sigma"]) == 40
+    # without --align, a log with odometry columns is mapped at its x, y, theta (here the truth)
+    assert cli.main(["build", str(log), "--out", str(plain_out), "--quiet"]) == 0
+    assert "alignment" not in read_map(plain_out).metadata
+    assert np.allclose(read_map(plain_out).poses[:, :3], true[:40])
+
+
+def test_cli_align_options_need_align(tmp_path, capsys):
+    from fuzzybrep.scans.csvscans import write_csv
+
+    _, drifted = _demo_floor_run()
+    log = tmp_path / "drift.csv"
+    write_csv(log, drifted[:5])
+    assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--no-loops"]) == 2
+    assert "--no-loops needs --align" in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
+
+
+# -- real logs (long: FUZZYBREP_BIG_LOGS=1) ------------------------------------------------------
+
+DATA = Path(os.environ.get("FUZZYBREP_DATASETS", "/work/shared/datasets")) / "carmen"
+
+
+@pytest.mark.skipif(not os.environ.get("FUZZYBREP_BIG_LOGS"), reason="real-log alignment runs only with FUZZYBREP_BIG_LOGS=1")
+@pytest.mark.parametrize("name", ["intel", "aces"])
+def test_real_log_alignment_from_benchmark_drift(name):
+    from fuzzybrep.scans.read import read_scans
+
+    path = DATA / f"{name}-corrected.log.gz"
+    if not path.exists():
+        pytest.skip(f"{path} not here")
+    scans = read_scans(path)
+    true = np.array([s.pose for s in scans])
+    result = align_scans(drift_scans(scans, DriftModel.benchmark(), seed=0))
+    assert _rmse(result.poses, true) < 0.25
