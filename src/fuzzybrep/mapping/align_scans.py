@@ -94,6 +94,10 @@ class AlignConfig:
     loop_window: int = 4  #: key scans either side of the candidate in the loop's local map
     loop_growth: float = 0.05  #: ... plus this share of the travel since (``_try_loop``)
     loop_max_radius: float = 10.0
+    #: the match may move the scan at most loop_radius + this share of the travel since: a front
+    #: end that drifts more than this loses that loop, one that slides along a corridor whose
+    #: doors repeat is not believed
+    loop_slide: float = 0.025
     #: an old place is a candidate this much farther than the drift reaches: the other side of a
     #: corridor, or a room seen from its door, is the same place (the match's own correction
     #: must still lie within the drift's reach)
@@ -330,8 +334,8 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
     if not inside.any():
         return None
     c = int(np.argmin(np.where(inside, d, np.inf)))
-    radius = float(reach[c])
     j = int(old[c])
+    radius = min(cfg.loop_radius + cfg.loop_slide * min(travel[k] - travel[j], since_loop), cfg.loop_max_radius)
     lo, hi = max(0, c - cfg.loop_window), c + cfg.loop_window + 1
     index = surf.index(old[lo:hi].tolist(), poses, cfg.spacing)
     if not len(index):
