@@ -79,6 +79,17 @@ def poses_in_free(scans, kept_scans) -> float:
 
 
 def held_out(scans) -> dict:
+    """The held-out figures of the map of every second scan; {"error": message} when no map can be
+    built (poses so far off that the evidence grid would not fit: the build's own one-line error)."""
+    from fuzzybrep.errors import FuzzyBrepError
+
+    try:
+        return _held_out(scans)
+    except FuzzyBrepError as e:
+        return {"error": str(e)}
+
+
+def _held_out(scans) -> dict:
     ev = E.evaluate_log(scans, 2, BuildConfig())
     kept, held = E.holdout_split(scans, 2)
     return {"violations": ev.exact.violations, "explained": ev.exact.explained, "poses_in_free": poses_in_free(held, kept)}
@@ -121,12 +132,19 @@ def bench(name: str, path: Path, repeat: int, plots: Path | None) -> dict:
     row["aligned"] = held_out(aligned)
     row["odometry"] = held_out(at_odo)
     print(f"[align {name}] cost x{repeat}", file=sys.stderr, flush=True)
-    row["cost"] = cost(at_odo, repeat)
+    from fuzzybrep.errors import FuzzyBrepError
+
+    try:
+        row["cost"] = cost(at_odo, repeat)
+    except FuzzyBrepError:  # no map from these poses, with or without --align
+        row["cost"] = None
     if plots is not None:
         from fuzzybrep.plot import save_map_figure
 
         plots.mkdir(parents=True, exist_ok=True)
         for what, sc in (("aligned", aligned), ("corrected", scans), ("odometry", at_odo)):
+            if "error" in row[what]:
+                continue
             crisp = build_map(sc).crisp
             save_map_figure(plots / f"{name}-{what}.png", crisp, np.array([s.pose[:2] for s in sc]),
                             title=f"{name}: map from {what} poses")
@@ -149,17 +167,28 @@ def markdown(rows: list[dict], repeat: int) -> str:
         star = "*" if r["log"] in JUDGED else ""
         out.append(f"| {r['log']}{star} | {r['scans']} | {r['travel']:.0f} m | {r['odometry_rmse']:.2f} m | "
                    f"**{r['rmse']:.3f} m** | {r['ate']:.3f} m | {r['max_error']:.2f} m | {r['loops']} | {r['poor']} | "
-                   f"**{r['cost']['ratio']:.2f}×** ({r['cost']['align_cpu']:.1f} s ÷ {r['cost']['plain_cpu']:.1f} s) |")
+                   + (f"**{r['cost']['ratio']:.2f}×** ({r['cost']['align_cpu']:.1f} s ÷ {r['cost']['plain_cpu']:.1f} s) |"
+                      if r["cost"] else "n/a (no map) |"))
     out += ["", "| log | violations: corrected / aligned / odometry | explained: corrected / aligned / odometry | "
                 "poses in free: corrected / aligned / odometry | Δ violations | Δ explained |",
             "|---|---|---|---|---:|---:|"]
     for r in rows:
         c, a, o = r["corrected"], r["aligned"], r["odometry"]
         star = "*" if r["log"] in JUDGED else ""
+        if any("error" in m for m in (c, a, o)):
+            na = lambda m, k: "no map" if "error" in m else pct(m[k])  # noqa: E731
+            out.append(f"| {r['log']}{star} | {na(c, 'violations')} / {na(a, 'violations')} / {na(o, 'violations')} | "
+                       f"{na(c, 'explained')} / {na(a, 'explained')} / {na(o, 'explained')} | "
+                       f"{na(c, 'poses_in_free')} / {na(a, 'poses_in_free')} / {na(o, 'poses_in_free')} | n/a | n/a |")
+            continue
         out.append(f"| {r['log']}{star} | {pct(c['violations'])} / **{pct(a['violations'])}** / {pct(o['violations'])} | "
                    f"{pct(c['explained'])} / **{pct(a['explained'])}** / {pct(o['explained'])} | "
                    f"{pct(c['poses_in_free'])} / {pct(a['poses_in_free'])} / {pct(o['poses_in_free'])} | "
                    f"{100 * (a['violations'] - c['violations']):+.2f} points | {100 * (a['explained'] - c['explained']):+.2f} points |")
+    notes = [f"- {r['log']}, {what}: no map: {m['error']}" for r in rows
+             for what, m in (("aligned poses", r["aligned"]), ("odometry", r["odometry"])) if "error" in m]
+    if notes:
+        out += ["", *notes]
     return "\n".join(out) + "\n"
 
 

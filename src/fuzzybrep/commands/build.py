@@ -141,6 +141,7 @@ def run(args) -> int:
 
             widen = pose_error(al)
             args.tme = cfg.tme + widen
+            args.laser_error = args.odometry_error = None  # TME given as their sum, widened
             mf, frontier_mf = _mf(args)
             align_notes.append(f"--widen-tme: TME {cfg.tme:g} + {widen:.3f} (the aligned poses' error) = {args.tme:.3f} {cfg.unit}")
     for note in result.notes:  # what the build decided (the scans' order when their timestamps cannot give it)
