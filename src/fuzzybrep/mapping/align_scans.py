@@ -86,6 +86,8 @@ class AlignConfig:
     width: float = 0.10  #: final kernel width of the match
     start_width: float = 0.3
     spacing: float = 0.05  #: SegmentIndex sample spacing
+    iterations: int = 20  #: Gauss-Newton iterations of a scan's match at most
+    loop_iterations: int = 30  #: ... of a loop match
     odometry: OdometryNoise = field(default_factory=OdometryNoise)
     loop_closure: bool = True
     loop_every: float = 2.0  #: try a loop closure every this many metres of travel
@@ -274,7 +276,7 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
             index, index_keys = surf.index(window, poses, cfg.spacing), window
         if len(index) and len(pts) >= 4:
             res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
-                        max_iterations=20)
+                        max_iterations=cfg.iterations)
             poses[k] = res.pose
             inliers[k], sigma[k], matches[k] = res.inlier_share, _sigma(res.covariance), res.matches
             cov = res.covariance
@@ -341,7 +343,7 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
     if not len(index):
         return None
     res = align(pts, index, poses[k], width=cfg.width, start_width=max(cfg.loop_start_width, d.min() / 2),
-                max_iterations=30)
+                max_iterations=cfg.loop_iterations)
     # what the match says, and only that: a corridor fixes the scan across it and its heading,
     # not along it, and the edge's information says so (singular along the corridor), rather than
     # the loop being dropped or trusted where it knows nothing
