@@ -46,7 +46,7 @@ from fuzzybrep.scans.read import read_scans  # noqa: E402
 from fuzzybrep.sim.drift import DriftModel, drift_scans, drift_stats  # noqa: E402
 from fuzzybrep.use import evaluate as E  # noqa: E402
 from blocks import BlockError, write_block  # noqa: E402
-from grid import SEARCHED, datasets  # noqa: E402
+from grid import SEARCHED, datasets, every_log  # noqa: E402
 
 #: the logs Done-when names; the others are reported too (not tuned on)
 JUDGED = ("intel", "aces", "freiburg-079")
@@ -68,16 +68,6 @@ def ate(a: np.ndarray, b: np.ndarray) -> float:
     return rmse((P - mp) @ R.T + mq, Q)
 
 
-def poses_in_free(scans, kept_scans) -> float:
-    """Share of held-out sensor positions inside the crisp free space of the map of the kept scans."""
-    import shapely
-
-    crisp = build_map(kept_scans).crisp
-    free = crisp.to_shapely()
-    p = np.array([s.pose[:2] for s in scans])
-    return float(shapely.contains_xy(free, p[:, 0], p[:, 1]).mean())
-
-
 def held_out(scans) -> dict:
     """The held-out figures of the map of every second scan; {"error": message} when no map can be
     built (poses so far off that the evidence grid would not fit: the build's own one-line error)."""
@@ -91,8 +81,7 @@ def held_out(scans) -> dict:
 
 def _held_out(scans) -> dict:
     ev = E.evaluate_log(scans, 2, BuildConfig())
-    kept, held = E.holdout_split(scans, 2)
-    return {"violations": ev.exact.violations, "explained": ev.exact.explained, "poses_in_free": poses_in_free(held, kept)}
+    return {"violations": ev.exact.violations, "explained": ev.exact.explained, "poses_in_free": ev.held_poses_free}
 
 
 def cost(drifting, repeat: int) -> dict:
@@ -193,10 +182,8 @@ def markdown(rows: list[dict], repeat: int) -> str:
 
 
 def run(d: Path, repeat: int = 1, only: list[str] | None = None, plots: Path | None = None) -> tuple[str, list[dict]]:
-    logs = sorted((d / "carmen").glob("*.log.gz"))
     rows = []
-    for p in logs:
-        name = p.name.removesuffix(".log.gz").removesuffix("-corrected")
+    for name, p in every_log(d).items():
         if only and name not in only:
             continue
         rows.append(bench(name, p, repeat, plots))

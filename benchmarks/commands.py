@@ -160,7 +160,7 @@ def markdown(results: list[dict], grow: dict | None = None) -> str:
 
 
 def main(argv=None) -> int:
-    from grid import LOGS, SEARCHED, datasets
+    from grid import SEARCHED, datasets, every_log
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("logs", nargs="*", type=Path)
@@ -175,7 +175,7 @@ def main(argv=None) -> int:
         if d is None:
             print(f"no folder holding carmen/ in any of {SEARCHED}: set FUZZYBREP_DATASETS", file=sys.stderr)
             return 1
-        logs = sorted((d / "carmen").glob("*.log.gz"))
+        logs = list(every_log(d).values())
     results = []
     for log in logs:
         print(f"[commands] {log.name}", file=sys.stderr, flush=True)

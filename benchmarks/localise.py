@@ -70,7 +70,9 @@ RPE_DISTANCES = (1.0, 10.0)
 
 def discover(d: Path) -> list[tuple[str, Path]]:
     """(name, path) of every CARMEN log in ``d/carmen``, by name; "-corrected" left off the name."""
-    return [(p.name.removesuffix(".log.gz").removesuffix("-corrected"), p) for p in sorted((d / "carmen").glob("*.log.gz"))]
+    from grid import every_log
+
+    return list(every_log(d).items())
 
 
 def ate(est: np.ndarray, true: np.ndarray, tme: float) -> dict:

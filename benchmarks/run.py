@@ -141,11 +141,11 @@ def bench_log(name: str, path: Path, repeat: int, maps: dict | None = None) -> d
     # the other policy for things that came and went: keep every obstacle any kept scan saw
     keep = replace(cfg, evidence=replace(cfg.evidence, clear=False))
     ev_keep = E.evaluate_log(scans, 2, keep).exact.violations
-    iou_all = E.free_space_iou(crisp.to_shapely(), grid)
+    iou_all = E.free_space_iou(fz.crisp_geometry, grid)
     # the robot's own track: where it stood must be free (issue 17), in the crisp map and in the
     # default α-cut's safe region at α = 0
     xy = np.array([s.pose[:2] for s in scans])
-    track = {"crisp": float(shapely.contains_xy(crisp.to_shapely(), xy[:, 0], xy[:, 1]).mean()),
+    track = {"crisp": float(shapely.contains_xy(fz.crisp_geometry, xy[:, 0], xy[:, 1]).mean()),
              "safe": float(shapely.contains_xy(fz.alpha_cut(0.0).inner, xy[:, 0], xy[:, 1]).mean())}
     print(f"[{name}] peak memory", file=sys.stderr, flush=True)
     peaks = peak.measure(path)
@@ -367,8 +367,7 @@ def main(argv=None) -> int:
     alpha_md = alpha_run(maps[largest[0]], [0.0, 0.25, 0.5, 0.75, 1.0], args.repeat, f"{largest[0]} map")
     env = {"when": time.strftime("%Y-%m-%d"), "machine": platform.machine(), "cpus": os.cpu_count(),
            "python": platform.python_version(), "geos": shapely.geos_version_string, "repeat": args.repeat}
-    every = sorted((d / "carmen").glob("*.log.gz"))
-    whole = [commands.measure(p, args.repeat) for p in every]
+    whole = [commands.measure(p, args.repeat) for _, p in logs]
     campus = d / "carmen" / "freiburg-campus-corrected.log.gz"
     grow = commands.scaling(campus, repeat=args.repeat) if campus.is_file() and not args.no_scaling else None
     runs, seconds = demo_runs()

@@ -123,10 +123,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     paths = args.maps
     if not paths:
-        from grid import datasets
+        from grid import datasets, every_log
 
         d = datasets()
-        paths = sorted(str(p) for p in (d / "carmen").glob("*.log*")) if d else []
+        paths = [str(p) for p in every_log(d).values()] if d else []
     rows = []
     for arg in paths:
         name, fz = load(arg)

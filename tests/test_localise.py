@@ -146,6 +146,18 @@ def test_drift_rates_are_as_documented():
     assert turned == pytest.approx(1.02 * 10 * math.pi / 2, rel=1e-6)
 
 
+def test_drift_command_defaults_are_the_benchmark_model():
+    from fuzzybrep.commands.drift import model_from_args
+    from fuzzybrep.sim.drift import BENCHMARK_RATES
+
+    args = cli.parser("drift").parse_args(["drift", "LOG", "--out", "OUT"])
+    assert (args.distance_error, args.heading_drift, args.turn_error) == (
+        BENCHMARK_RATES["distance"], BENCHMARK_RATES["heading_deg_per_m"], BENCHMARK_RATES["turn"])
+    assert (args.sigma_distance, args.sigma_heading, args.sigma_turn) == (
+        BENCHMARK_RATES["sigma_distance"], BENCHMARK_RATES["sigma_heading_deg"], BENCHMARK_RATES["sigma_turn_deg"])
+    assert model_from_args(args) == DriftModel.benchmark()
+
+
 def test_drift_is_seeded_starts_true_and_has_random_error():
     m = DriftModel.benchmark()
     true = straight()

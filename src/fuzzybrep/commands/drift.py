@@ -20,6 +20,8 @@ def add_arguments(p) -> None:
                    help="log to write: CSV scans when it ends in .csv or .csv.gz, else a CARMEN log (gzip when .gz); "
                         "the poses are the input's (the truth), the odometry fields drift")
     p.add_argument("--seed", type=seed, default=0, help="random seed of the odometry's random error (default 0)")
+    # the defaults are sim.drift.BENCHMARK_RATES (a test holds them equal: importing sim.drift here
+    # would put NumPy into every `fuzzybrep --help`)
     g = p.add_argument_group("odometry error (Appendix I); defaults: the localisation benchmark's")
     g.add_argument("--distance-error", type=_error, default=0.05,
                    help="the odometry reports (1 + this) × the distance driven (default 0.05: 5 %%)")

@@ -36,8 +36,12 @@ import numpy as np
 from ..scans.scan import Scan, decompose, relative, wrap
 from .simulate import DiffDrive
 
-#: Appendix I's Pioneer 3-DX wheelbase (m)
-WHEELBASE_M = 0.267
+#: Appendix I's Pioneer 3-DX wheelbase (m), the simulator's
+WHEELBASE_M = DiffDrive.wheelbase
+#: the localisation benchmark's odometry (``DriftModel.benchmark``, ``fuzzybrep drift``'s defaults):
+#: ``DriftModel.from_rates``'s arguments
+BENCHMARK_RATES = {"distance": 0.05, "heading_deg_per_m": 2.0, "turn": 0.02,
+                   "sigma_distance": 0.02, "sigma_heading_deg": 0.5, "sigma_turn_deg": 1.0}
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,7 @@ class DriftModel:
     def benchmark(cls) -> "DriftModel":
         """The localisation benchmark's odometry: 5 % of distance, 2°/m, 2 % of every turn, and
         random error of 2 cm/√m, 0.5°/√m and 1°/√rad."""
-        return cls.from_rates(0.05, 2.0, 0.02, sigma_distance=0.02, sigma_heading_deg=0.5, sigma_turn_deg=1.0)
+        return cls.from_rates(**BENCHMARK_RATES)
 
     # -- what the odometry does, from the wheels ---------------------------------------------
 

@@ -251,6 +251,8 @@ class Evaluation:
     resolution: float
     seconds: float
     notes: list = field(default_factory=list)  #: what the evaluation decided (the scans' order)
+    #: share of the held-out scans' sensor positions inside the crisp free space (the robot's own track)
+    held_poses_free: float = math.nan
 
     def as_dict(self) -> dict:
         """The JSON form. An undefined IoU (NaN: no free space in either at the cell centres) is
@@ -331,9 +333,12 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
     tell()
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
-    iou = free_space_iou(crisp.to_shapely(), grid)
+    free = crisp.to_shapely()
+    iou = free_space_iou(free, grid)
+    xy = np.array([s.pose[:2] for s in held])
+    poses_free = float(shapely.contains_xy(free, xy[:, 0], xy[:, 1]).mean())
     thesis = memory_table(crisp.n_vertices, crisp.n_vertices, 0.0, cells=())[0].bytes  # Table 5.3's accounting
     return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(went),
                       share(~unseen & ~went), scores["safe"], scores["thesis"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0,
-                      [order_note] if order_note else [])
+                      [order_note] if order_note else [], poses_free)
