@@ -98,6 +98,8 @@ def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     e = E.evaluate_log(scans, 2, BuildConfig())
     assert e.exact.violations > 0.01  # the person is in the free space the kept scans saw
     assert e.violations_unseen == e.exact.violations  # and no kept scan saw anything there
+    # kept beams passed through where it stood: no map true to the kept scans could avoid them
+    assert e.violations_seen_through == e.violations_unseen
     # kept scans before and after looked through where the person stood: they came and went
     assert e.violations_came_and_went == e.exact.violations
     assert e.violations_rest == 0.0  # nothing a map of the kept scans could have known
@@ -119,7 +121,7 @@ def test_a_person_seen_by_the_held_out_scans_alone_is_an_unseen_violation():
     left = [scan_of(empty.difference(person) if k < 4 else empty, p, n=361, fov=2 * np.pi - 0.02, t=float(k))
             for k, p in enumerate(poses)]
     e = E.evaluate_log(left, 2, BuildConfig())
-    assert e.exact.violations > 0.01 and e.violations_unseen == 0.0
+    assert e.exact.violations > 0.01 and e.violations_unseen == 0.0 and e.violations_seen_through == 0.0
     # (a beam of scan 0 grazing past the box's corner sees a few of them free before)
     assert e.violations_came_and_went < 0.1 * e.exact.violations
     assert e.violations_rest == pytest.approx(e.exact.violations - e.violations_came_and_went)

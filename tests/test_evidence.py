@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
 from fuzzybrep.mapping import evidence
+from fuzzybrep.mapping.own_surface import own_margins
 from fuzzybrep.mapping import build
 from fuzzybrep.mapping.build import BuildConfig, build_map, rays_of
 from fuzzybrep.errors import GeometryError
@@ -452,3 +453,103 @@ def test_the_bridge_looks_only_where_claiming_beams_pass_and_clips_them_the_same
     everywhere = evidence.clip(rays, ev, cfg)
     np.testing.assert_array_equal(local, everywhere)
     assert (local < rays.length - 1e-9).any()
+
+
+POST = shapely.box(3.9, 2.65, 4.05, 2.75)
+
+
+def grazing_beams(a: Scan, lo: float = 3.0, hi: float = 5.9) -> np.ndarray:
+    """A's beams that end on the corridor's wall (y = 3) between x = lo and hi: 54° down to 10°
+    incidence (below λ = 10° a surface is not taken for one, and they stop short as before)."""
+    ang = a.pose[2] + a.bearings
+    x, y = a.pose[0] + a.ranges * np.cos(ang), a.pose[1] + a.ranges * np.sin(ang)
+    return np.flatnonzero((np.abs(y - 3.0) < 1e-6) & (x > lo) & (x < hi))
+
+
+def corridor_passes(post: bool) -> tuple[list[Scan], Scan]:
+    """Scan A, 0.7 m from a corridor's wall (y = 3), sees it at grazing angles; a later pass down
+    the middle whose poses are 6 cm off towards A puts a copy of the wall 6 cm inside A's free
+    space, and with ``post`` a post 0.3 m off the wall that stood only then."""
+    corridor = shapely.box(0, 0, 20, 3)
+    a = scan_of(corridor, (2.0, 2.3, 0.0), n=361, fov=np.pi, max_range=20.0, t=0)
+    later = corridor.difference(POST) if post else corridor
+    passes = [shifted(scan_of(later, (x, 1.5, np.pi / 2), n=361, fov=np.pi, max_range=20.0, t=1 + i), 0.0, -0.06)
+              for i, x in enumerate(np.arange(3.0, 16.0, 0.5))]
+    return [a, *passes], a
+
+
+def free_ranges(scans: list[Scan]) -> np.ndarray:
+    cfg = evidence.EvidenceConfig()
+    rays = rays_of(scans, classify_all(scans, BeamConfig(), PolygonConfig()))
+    return evidence.clip(rays, evidence.gather(rays, cfg), cfg)
+
+
+def test_a_wall_seen_at_a_grazing_angle_is_the_beams_own_surface():
+    scans, a = corridor_passes(post=False)
+    wall = grazing_beams(a)
+    assert len(wall) > 20
+    free = free_ranges(scans)[: len(a.ranges)]
+    # the later pass's copy of the wall, 6 cm in front of it across (up to 0.35 m along these
+    # beams), is the wall itself: every beam reaches it. With a margin of 0.15 m along the beam
+    # the beams under 23° stopped short
+    np.testing.assert_allclose(free[wall], a.ranges[wall], atol=1e-9)
+    short = own_margins(rays_of([a], classify_all([a], BeamConfig(), PolygonConfig())),
+                                 0.12, np.radians(10.0))[wall]
+    ang = np.abs(a.bearings[wall])  # the wall runs along +x: the incidence is the bearing
+    np.testing.assert_allclose(short, 0.12 / np.maximum(np.sin(ang), np.sin(np.radians(10.0))), rtol=0.02)
+
+
+def test_what_stands_off_the_surface_still_stops_a_grazing_beam():
+    scans, a = corridor_passes(post=True)
+    free = free_ranges(scans)[: len(a.ranges)]
+    ang = a.pose[2] + a.bearings
+    wall = grazing_beams(a)
+    ray = {i: shapely.LineString([a.pose[:2], a.pose[:2] + a.ranges[i] * np.array([np.cos(ang[i]), np.sin(ang[i])])])
+           for i in wall}
+    # the beams whose ray crosses the post where the later pass saw it (0.3 m off the wall,
+    # put there after A) stop before it
+    seen = shapely.affinity.translate(POST, 0.0, -0.06)
+    through = [i for i in wall if seen.intersects(ray[i])]
+    assert len(through) >= 2
+    for i in through:
+        end = a.pose[:2] + free[i] * np.array([np.cos(ang[i]), np.sin(ang[i])])
+        assert end[0] <= 3.9 + 1e-9, (i, free[i], a.ranges[i])
+    # the rest of the wall is reached
+    rest = [i for i in wall if seen.distance(ray[i]) > 0.1]
+    assert len(rest) > 10
+    np.testing.assert_allclose(free[rest], a.ranges[rest], atol=1e-9)
+
+
+def test_a_beam_without_a_neighbour_on_its_surface_keeps_the_plain_margin():
+    # three rays of one scan: the middle one's neighbours see nothing; two scans' rays never
+    # count as neighbours
+    rays = evidence.Rays(np.zeros(2), np.zeros(2), np.cos([0.0, 0.01, 0.02, 0.0]), np.sin([0.0, 0.01, 0.02, 0.0]),
+                         np.full(4, 5.0), np.zeros(2), np.array([False, True, False, True]),
+                         np.array([8.0, 5.0, 8.0, 5.0]), np.array([3, 1]))
+    np.testing.assert_array_equal(own_margins(rays, 0.12, np.radians(10.0)), np.full(4, 0.12))
+
+
+def test_a_thin_wall_seen_from_both_sides_is_carved_as_one_hole():
+    # a free-standing 2 cm partition in a hall; the two sides' poses are 4 cm off towards it, so
+    # their free space overlaps across it and only the carve keeps it. Cell by cell, its carved
+    # cells were a string of 5 cm boxes, most too small to stay holes: the wall was lost
+    hall = shapely.box(0, 0, 8, 6)
+    world = hall.difference(shapely.box(1.5, 2.99, 6.5, 3.01))
+    rng = np.random.default_rng(1)
+    south = [shifted(scan_of(world, (x, y, 0.0), n=721, fov=FULL, t=t), 0, 0.04)
+             for t, (x, y) in enumerate(rng.uniform((1, 1), (7, 2.5), (8, 2)))]
+    north = [shifted(scan_of(world, (x, y, 0.0), n=721, fov=FULL, t=10 + t), 0, -0.04)
+             for t, (x, y) in enumerate(rng.uniform((1, 3.5), (7, 5), (8, 2)))]
+    on_wall = shapely.points([(x, 3.0) for x in np.linspace(1.6, 6.4, 25)])
+
+    def mapped(close):
+        cfg = dataclasses.replace(BuildConfig(), evidence=evidence.EvidenceConfig(carve_close=close))
+        return build_map(south + north, cfg).crisp
+
+    cells = mapped(0.0)
+    assert shapely.contains(cells.to_shapely(), on_wall).sum() > 10 and cells.n_holes > 20
+    closed = mapped(evidence.EvidenceConfig().carve_close)
+    assert not shapely.contains(closed.to_shapely(), on_wall).any()
+    wall = max((shapely.Polygon(r.vertices) for reg in closed.regions for r in reg.holes), key=lambda h: h.area)
+    assert wall.contains(on_wall).all() and closed.n_holes <= 3
+    assert wall.area < 5.0 * 0.2  # a thin hole along the wall, not a block of the hall

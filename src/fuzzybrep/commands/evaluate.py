@@ -59,6 +59,8 @@ def run(args) -> int:
           f"isolated objects (< 0.5 m across, in front of both neighbours: legs, people, poles)")
     print(f"  {pct(e.violations_unseen)} of all endpoints are violations where no kept scan saw any return "
           f"within TME: no map of the kept scans could know them")
+    print(f"    {pct(e.violations_seen_through)} of all endpoints: of those, a kept beam passed more than TME "
+          f"beyond them: free in every map true to the kept scans")
     print(f"  {pct(e.violations_came_and_went)} of all endpoints are violations that came and went: beams of kept "
           f"scans passed more than TME beyond them both before and after (people, doors)")
     print(f"  {pct(e.violations_rest)} of all endpoints are violations neither unseen nor come and gone: a kept scan "

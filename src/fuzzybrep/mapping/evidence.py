@@ -13,7 +13,8 @@ all scans saw:
    door opened). The neighbourhood keeps a chair leg that rays graze through pose noise from
    being cleared. With ``clear`` off (a static world) every cell ever hit stays occupied;
 4. each beam's free range is clipped at the first occupied cell along it that lies more than
-   ``own_margin`` in front of its own end. Evidence must be of standing to stop a ray: a cell hit
+   ``own_margin`` off its own surface (``own_margins``: farther along a beam that meets its
+   surface at a grazing angle). Evidence must be of standing to stop a ray: a cell hit
    fewer than ``solid_hits`` times and by less than ``block_ratio`` of the rays that crossed it
    is noise at the edge of something (a mixed pixel, pose jitter, a passing leg) and stops none.
    Among evidence of standing the newest wins, both ways (thesis 6.2, future work 2): an
@@ -23,7 +24,8 @@ all scans saw:
    between two occupied cells less than ``no_return_bridge`` apart (``bridged``);
 5. after the union, occupied cells hit ``carve_hits`` times or more that the free space still
    swallowed (a thin wall seen from both sides, whose two sides' free space meets through pose
-   error) are cut back out (``carve``).
+   error) are cut back out (``carve``), the gaps between one wall's cells closed so that it
+   is one thin hole.
 
 The grid is scaffolding: it is dropped once the free ranges are known, and the map stays a B-rep.
 It is stored only where rays pass (``cells.Cells``), and counted cell by cell where samples fall,
@@ -41,6 +43,7 @@ import numpy as np
 import shapely
 
 from .cells import TILE, Cells
+from .own_surface import own_margins
 
 
 @dataclass(frozen=True)
@@ -48,12 +51,18 @@ class EvidenceConfig:
     cell: float = 0.05  #: grid cell size (map unit)
     step: float = 0.05  #: sampling step along rays
     cross_margin: float = 0.15  #: a ray crosses cells only this far short of its end
-    own_margin: float = 0.15  #: evidence closer than this to a beam's own end is its own surface
+    #: evidence closer than this to a beam's own surface, measured across the surface, is that
+    #: surface: along a beam meeting it at incidence β, own_margin / sin β (``own_margins``)
+    own_margin: float = 0.12
+    #: the most grazing incidence counted (radians): λ of the adaptive depth-jump test, below which
+    #: neighbouring returns are not taken for one surface either; own_margin / sin of it is 0.69 m
+    own_incidence: float = float(np.radians(10.0))
     clear_crossings: int = 3  #: crossings after the last hit needed to clear an obstacle
     clear: bool = True  #: allow later free rays to clear obstacles (dynamic environments)
     solid_hits: int = 3  #: a cell hit this often blocks rays whatever crossed it
     carve_hits: int = 3  #: occupied cells hit this often are cut out of the free space if deep inside it
     carve_depth: float = 0.10  #: how deep inside the free space a cell must lie to be cut out
+    carve_close: float = 0.10  #: gaps up to twice this between carved cells are closed (one wall, one hole)
     block_ratio: float = 0.05  #: a cell hit fewer times blocks only if hits >= block_ratio x its crossings
     no_return_bridge: float = 1.0  #: a beam with no return also stops between occupied cells closer than this
     chunk: int = 250_000  #: samples per chunk: bounds the memory each of the two threads takes (no faster when larger)
@@ -203,7 +212,17 @@ def carve(free, ev: Evidence, cfg: EvidenceConfig = EvidenceConfig(), stood=None
     for dx, dy in ((r, 0), (-r, 0), (0, r), (0, -r)):
         deep[deep] = shapely.contains_xy(free, cx[deep] + dx, cy[deep] + dy)
     h = ev.cell / 2
-    return shapely.union_all(shapely.box(cx[deep] - h, cy[deep] - h, cx[deep] + h, cy[deep] + h))
+    cells = shapely.union_all(shapely.box(cx[deep] - h, cy[deep] - h, cx[deep] + h, cy[deep] + h))
+    if not cfg.carve_close:
+        return cells
+    # one wall, one hole: the carved cells of a thin wall lie in a broken chain (only its cells
+    # deep in the free space are cut), which united cell by cell made a string of 5 cm boxes,
+    # each its own hole of three or four vertices after the vertex reduction (most of Intel's
+    # holes). Closing the gaps of up to 2 · carve_close between them (a morphological closing:
+    # grow, unite, shrink back) gives each wall one thin hole; what it adds lies between cells
+    # of one wall, narrower than a door by far
+    c = cfg.carve_close
+    return shapely.buffer(shapely.buffer(cells, c, join_style="mitre", quad_segs=1), -c, join_style="mitre", quad_segs=1)
 
 
 def _grid_rays(rays: Rays, ev: "Evidence", step: float):
@@ -557,7 +576,7 @@ def clip(rays: "Rays | RayBatches", ev: Evidence, cfg: EvidenceConfig = Evidence
         g = _grid_rays(b, ev, cfg.step)
         count = _sample_counts(b.length, cfg.step)
         # evidence at the beam's own end is its own return, not a conflict
-        own_end = np.where(b.hit, b.hit_range, np.inf) - cfg.own_margin
+        own_end = np.where(b.hit, b.hit_range, np.inf) - own_margins(b, cfg.own_margin, cfg.own_incidence)
         for chunk in samples[i] if samples is not None else _chunks(b.length, cfg):
             if len(chunk) == 3:  # kept by gather: the samples that could stop their rays
                 _, ray, k = chunk

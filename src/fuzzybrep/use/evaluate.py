@@ -167,6 +167,15 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
     return before, after
 
 
+def seen_through(points: np.ndarray, scans: Sequence[Scan], config, margin: float) -> np.ndarray:
+    """Per point: did a beam of ``scans`` pass it by more than ``margin`` (``seen_free`` at any
+    time, the free ranges of ``config``'s spike filter)? An obstacle there that none of them saw
+    within ``margin`` was not there for them: a map true to those scans calls the place free."""
+    free = [f for f, _ in classify_all(scans, config.beams, config.polygon)]
+    before, _ = seen_free(points, np.full(len(points), np.inf), scans, free, margin)
+    return before
+
+
 def came_and_went(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], config, margin: float) -> np.ndarray:
     """Per point: seen free by ``scans`` both before and after its time (``seen_free``), with the
     free ranges the map uses (``config``'s spike filter), beams passing ``margin`` or more beyond.
@@ -253,6 +262,9 @@ class Evaluation:
     notes: list = field(default_factory=list)  #: what the evaluation decided (the scans' order)
     #: share of the held-out scans' sensor positions inside the crisp free space (the robot's own track)
     held_poses_free: float = math.nan
+    #: share of held-out endpoints: unseen violations (``violations_unseen``) that a kept beam
+    #: passed more than TME beyond: free for every map true to the kept scans, whatever its method
+    violations_seen_through: float = math.nan
 
     def as_dict(self) -> dict:
         """The JSON form. An undefined IoU (NaN: no free space in either at the cell centres) is
@@ -330,6 +342,7 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
     tell()
     went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme)
+    through = seen_through(pts[viol][unseen], kept, config, tme)
     share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
     tell()
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
@@ -341,4 +354,4 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(went),
                       share(~unseen & ~went), scores["safe"], scores["thesis"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0,
-                      [order_note] if order_note else [], poses_free)
+                      [order_note] if order_note else [], poses_free, share(through))
