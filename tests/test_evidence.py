@@ -307,6 +307,19 @@ def test_carve_cuts_out_only_solidly_hit_occupied_cells_deep_inside_the_free_spa
         assert not cut.intersects(shapely.Point(*centre(*c)))
 
 
+@settings(deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 30), st.integers(0, 200), st.floats(0.01, 2.0))
+def test_within_is_the_distance_to_the_nearest_point_below_the_radius(seed, k, n, radius):
+    # carve's footprint test (scipy's KD-tree before), against every pair; points on a 0.05 grid
+    # put some at exactly the radius, which is not within it
+    rng = np.random.default_rng(seed)
+    points = np.round(rng.uniform(-2, 2, (k, 2)) / 0.05) * 0.05
+    x, y = (np.round(rng.uniform(-2.5, 2.5, (2, n)) / 0.05) * 0.05)
+    d = np.hypot(x[:, None] - points[None, :, 0], y[:, None] - points[None, :, 1]) if k else np.full((n, 1), np.inf)
+    np.testing.assert_array_equal(evidence.within(points, x, y, radius), (d < radius).any(axis=1))
+    assert not evidence.within(np.zeros((1, 2)), np.array([0.3]), np.array([0.0]), 0.3).any()
+
+
 def test_time_ranks_order_times_whether_sorted_or_not():
     t = np.array([3.5, 3.5, 7.0, 1.0, 7.0, 2.0])
     assert evidence.time_ranks(t).tolist() == [3, 3, 4, 1, 4, 2]
