@@ -157,6 +157,37 @@ def test_bridged_is_every_segment_between_two_occupied_cells_within_the_span(see
     assert np.array_equal(evidence.bridged(ev, span), want)
 
 
+def bridge_by_pairs(occupied: np.ndarray, nx: int, span: float, cell: float = 0.05) -> np.ndarray:
+    """bridged's definition, pair by pair: each segment from the cell first in row order to the
+    other, rounded at every half cell along its longer axis."""
+    want = occupied.copy()
+    iy, ix = np.divmod(np.flatnonzero(occupied), nx)
+    for i in range(len(ix)):
+        for j in range(i + 1, len(ix)):
+            dx, dy = ix[j] - ix[i], iy[j] - iy[i]
+            n = 2 * max(abs(dx), abs(dy))
+            if n > 2 and np.hypot(dx, dy) <= span / cell:
+                t = np.arange(1, n) / n
+                want[np.rint(iy[i] + t * dy).astype(int) * nx + np.rint(ix[i] + t * dx).astype(int)] = True
+    return want
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_bridged_is_its_definition_over_a_metre_where_halves_round_unevenly(seed):
+    # a 1 m span is 20 cells: displacements of 11, 13 and 19 cells have steps t·d that are a
+    # half only to within rounding (15/22 · 11 = 7.4999...), which bridged rounds cell by cell;
+    # a wide frame (the occupied cells far from 0) and both parities of the first cell
+    rng = np.random.default_rng(seed)
+    ny, nx = 50, 300
+    occupied = np.zeros(ny * nx, bool)
+    occupied[rng.choice(ny * nx, 140, replace=False)] = True
+    for x0, y0 in ((250, 3), (251, 4), (40, 7), (41, 8)):  # pairs 11, 13, 19 apart along both axes and diagonally
+        for d in (11, 13, 19):
+            occupied[[y0 * nx + x0, y0 * nx + x0 + d, (y0 + d) * nx + x0, (y0 + d) * nx + x0 + d]] = True
+    ev = evidence.Evidence(np.zeros(2), 0.05, (ny, nx), occupied.astype(np.int32), occupied)
+    assert np.array_equal(evidence.bridged(ev, 1.0), bridge_by_pairs(occupied, nx, 1.0))
+
+
 def test_scans_that_see_nothing_are_refused_clearly():
     # every beam without a return (or ending within cross_margin of the sensor) crosses no cell:
     # gather once failed on the empty batch with an IndexError, not the map's own error
