@@ -85,6 +85,57 @@ def test_an_obstacle_that_appears_later_wins_over_older_free_space():
     assert build_map(scans, no_evidence(BuildConfig())).crisp.to_shapely().boundary.distance(face) > 0.5
 
 
+def occupied_by_definition(rays, ev, cfg) -> np.ndarray:
+    """Steps 1-3 of the evidence, ray by ray with sets and dicts: hits with the time last seen;
+    every ray's distinct cells short of its end, counted, and those newer than the newest hit in
+    the 3 x 3 neighbourhood; occupied = hit, not cleared, solid. The cells of a ray's samples are
+    gather's own (_sample_cells), so that this checks what is counted, not the sampling."""
+    ranks = evidence.time_ranks(rays.origin_time)
+    rank = rays.spread(ranks)
+    hits, last = {}, {}
+    for c, r in zip(ev.cell_index(rays.hx, rays.hy), rank[rays.hit]):
+        hits[int(c)] = hits.get(int(c), 0) + 1
+        last[int(c)] = max(last.get(int(c), 0), int(r))
+    g = evidence._grid_rays(rays, ev, cfg.step)
+    count = evidence._sample_counts(rays.length, cfg.step)
+    short = evidence._samples_short_of(rays.length - cfg.cross_margin, cfg.step, count)
+    ray, k, cells = evidence._sample_cells(g, ev.cells, count, 0, len(count))
+    crossings = {}  # ray -> its distinct cells short of its end
+    for r, kk, c in zip(ray, k, cells):
+        if kk < short[r]:
+            crossings.setdefault(int(r), set()).add(int(c))
+    occupied = np.zeros(len(ev.hits), bool)
+    for c, h in hits.items():
+        if c < evidence.TILE**2:  # the scratch tile: far from every ray
+            continue
+        (cx,), (cy,) = ev.cells.xy(np.array([c]))
+        around = [int(ev.cells.index(np.array([cx + dx]), np.array([cy + dy]))[0])
+                  for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+        newest = max(last.get(n, 0) for n in around)
+        near_hits = sum(hits.get(n, 0) for n in set(around))
+        crossed = sum(c in cs for cs in crossings.values())
+        after = sum(c in cs and rank[r] > newest for r, cs in crossings.items())
+        cleared = after >= cfg.clear_crossings and after > near_hits
+        solid = h >= cfg.solid_hits or h >= cfg.block_ratio * crossed
+        occupied[c] = not cleared and solid
+    return occupied
+
+
+def test_gather_counts_what_clears_a_cell_as_its_definition_does():
+    # the person who walks away and the box put down later, with pose noise: every hit cell's
+    # crossings, those newer than the hits near it, and the solid test, cell by cell
+    scans = walk_by(obstacle_times=range(0, 5)) + walk_by(obstacle_times=range(20, 30))[12:]
+    rng = np.random.default_rng(3)
+    scans = [dataclasses.replace(s, pose=s.pose + rng.normal(0, 0.01, 3), timestamp=float(i))
+             for i, s in enumerate(scans[::2])]
+    cfg = evidence.EvidenceConfig()
+    rays = rays_of(scans, classify_all(scans, BeamConfig()))
+    ev = evidence.gather(rays, cfg)
+    want = occupied_by_definition(rays, ev, cfg)
+    assert want.sum() > 50 and (ev.hits > 0).sum() > want.sum()  # some hit cells were cleared or not solid
+    np.testing.assert_array_equal(ev.occupied, want)
+
+
 def test_edges_are_tagged_obstacle_or_frontier():
     # a room seen through its open door: walls seen are obstacles, the view's limits frontiers
     room = shapely.Polygon([(0, 0), (6, 0), (6, 4), (3.5, 4), (3.5, 8), (2.5, 8), (2.5, 4), (0, 4)])
