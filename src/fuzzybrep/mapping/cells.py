@@ -8,6 +8,7 @@ of TILE × TILE cells where rays pass, it takes them for the area the scans saw.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +16,8 @@ import numpy as np
 #: cells a side of a tile of the evidence grid, which is stored tile by tile where rays pass
 TILE = 64
 _SHIFT = 6  # TILE == 1 << _SHIFT
+#: frames of at most this many cells keep a table of every cell's stored index (4 bytes a cell)
+LUT_LIMIT = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -43,10 +46,28 @@ class Cells:
         cx, cy = np.asarray(cx), np.asarray(cy)
         if self.tiles is None:
             return cy.astype(np.int64) * self.shape[1] + cx
+        lut = self._lut
+        if lut is not None:
+            return lut[cy * self.shape[1] + cx]
+        return self._tiled_index(cx, cy)
+
+    def _tiled_index(self, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
         # TILE is a power of two: shifts and masks, and one look-up in the small tile table,
         # cost about as much as the sample's own arithmetic
         slot = self._flat[(cy >> _SHIFT) * self.tiles.shape[1] + (cx >> _SHIFT)]
         return (slot << (2 * _SHIFT)) | ((cy & (TILE - 1)) << _SHIFT) | (cx & (TILE - 1))
+
+    @functools.cached_property
+    def _lut(self) -> np.ndarray | None:
+        """Every cell of the frame's stored index, row by row (int32), where the frame is not much
+        larger than what is stored: indoors, where rays pass nearly everywhere in the frame
+        (Intel: 564 k cells of frame, 516 k stored), one look-up instead of eleven operations per
+        sample. None where the frame is far larger (freiburg-campus: returns out to 80 m)."""
+        ny, nx = self.shape
+        if ny * nx > min(LUT_LIMIT, 2 * self.size):
+            return None
+        cy, cx = np.divmod(np.arange(ny * nx, dtype=np.int32), np.int32(nx))
+        return self._tiled_index(cx, cy).astype(np.int32)
 
     @property
     def _flat(self) -> np.ndarray:
