@@ -181,14 +181,15 @@ def test_a_command_imports_only_what_it_needs():
 
 def test_a_whole_build_imports_neither_scipy_nor_matplotlib(tmp_path):
     # what a build runs, not only its parser: importing scipy.spatial (the footprint's KD-tree)
-    # took 0.2 s and 38 MB, as long as building a small log
+    # took 0.2 s and 38 MB, as long as building a small log; a quiet build shows nothing, so it
+    # needs no rich either (30 ms)
     import subprocess
     import sys
 
     log, _ = scans_csv(tmp_path)
     code = ("import sys\nfrom fuzzybrep import cli\n"
             f"assert cli.main(['build', {str(log)!r}, '--out', {str(tmp_path / 'map.json')!r}, '--quiet']) == 0\n"
-            "print(sorted(m for m in ('scipy', 'matplotlib') if m in sys.modules))")
+            "print(sorted(m for m in ('scipy', 'matplotlib', 'rich') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
 
