@@ -223,8 +223,8 @@ def bridge_by_pairs(occupied: np.ndarray, nx: int, span: float, cell: float = 0.
     return want
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_bridged_is_its_definition_over_a_metre_where_halves_round_unevenly(seed):
+@pytest.mark.parametrize("seed, threads", [(0, False), (1, False), (2, True), (3, True)])
+def test_bridged_is_its_definition_over_a_metre_where_halves_round_unevenly(seed, threads, monkeypatch):
     # a 1 m span is 20 cells: displacements of 11, 13 and 19 cells have steps t·d that are a
     # half only to within rounding (15/22 · 11 = 7.4999...), which bridged rounds cell by cell;
     # a wide frame (the occupied cells far from 0) and both parities of the first cell
@@ -236,6 +236,9 @@ def test_bridged_is_its_definition_over_a_metre_where_halves_round_unevenly(seed
         for d in (11, 13, 19):
             occupied[[y0 * nx + x0, y0 * nx + x0 + d, (y0 + d) * nx + x0, (y0 + d) * nx + x0 + d]] = True
     ev = evidence.Evidence(np.zeros(2), 0.05, (ny, nx), occupied.astype(np.int32), occupied)
+    if threads:  # the displacements split between two threads, as for a large log's many cells
+        monkeypatch.setattr(evidence.os, "cpu_count", lambda: 2)
+        monkeypatch.setattr(evidence, "BRIDGE_THREADS_FROM", 0)
     assert np.array_equal(evidence.bridged(ev, 1.0), bridge_by_pairs(occupied, nx, 1.0))
 
 

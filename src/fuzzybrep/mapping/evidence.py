@@ -514,6 +514,10 @@ def _blocks(ev: Evidence, c: np.ndarray) -> np.ndarray:
     return np.unique((iy // b) * (1 << 31) + ix // b)
 
 
+#: occupied cells from which ``bridged`` works on two threads
+BRIDGE_THREADS_FROM = 32_000
+
+
 def bridged(ev: Evidence, span: float) -> np.ndarray:
     """(cells.size,) bool: occupied, or on the segment between two occupied cells ``span`` or less apart.
 
@@ -570,18 +574,18 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
     at = (ly * w + lx).astype(itype)
     occupied = np.zeros(h * w, bool)
     occupied[at] = True
-    marks = np.zeros(h * w, bool)
-    # the pad (m cells left, right and above; dy >= 0) keeps every look-up inside the bitmap
-    for dy in range(0, m + 1):
-        for dx in range(-m, m + 1):
-            gap = max(abs(dx), dy)
-            # each pair once (dy > 0, or dy = 0 and dx > 0); neighbouring cells leave nothing between
-            if gap <= 1 or (dy == 0 and dx < 0) or dx * dx + dy * dy > r * r:
-                continue
+    # the pad (m cells left, right and above; dy >= 0) keeps every look-up inside the bitmap;
+    # each pair once (dy > 0, or dy = 0 and dx > 0); neighbouring cells leave nothing between
+    shifts = [(dx, dy) for dy in range(0, m + 1) for dx in range(-m, m + 1)
+              if max(abs(dx), dy) > 1 and not (dy == 0 and dx < 0) and dx * dx + dy * dy <= r * r]
+
+    def mark(part):
+        marks = np.zeros(h * w, bool)
+        for dx, dy in part:
             a = np.flatnonzero(occupied[at + itype(dy * w + dx)])
             if not len(a):
                 continue
-            n = 2 * gap  # half-cell steps
+            n = 2 * max(abs(dx), dy)  # half-cell steps
             t = np.arange(1, n) / n
             fx, fy = t * dx, t * dy
             # a step whose t·d is a half only to within rounding (t = 15/22 · 11 is 7.4999...):
@@ -601,6 +605,16 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
                 px = np.rint(lx[a, None] + fx[ragged]).astype(np.int64)
                 py = np.rint(ly[a, None] + fy[ragged]).astype(np.int64)
                 marks[(py * w + px).ravel()] = True
+        return marks
+
+    # the displacements in two halves on the machine's cores (NumPy lets go of the GIL while it
+    # adds and marks), each half into a bitmap of its own: the marks are the same in any order.
+    # Only for many occupied cells: Freiburg 079's 40 k went from 0.41 to 0.26 s, where Intel's
+    # 22 k took longer (0.15 -> 0.17 s: a displacement's few pairs hold the GIL between calls)
+    parts = [shifts[j::2] for j in range(2)] if (os.cpu_count() or 1) > 1 and len(occ) >= BRIDGE_THREADS_FROM else [shifts]
+    marks = None
+    for part in _parallel(mark, parts):
+        marks = part if marks is None else np.logical_or(marks, part, out=marks)
     marks &= ~occupied
     k = np.flatnonzero(marks)
     kx, ky = k % w - sx, k // w - sy
