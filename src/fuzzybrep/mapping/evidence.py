@@ -465,7 +465,9 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
         for lo, hi in _chunks(b.length, cfg):
             ray, k, c = _sample_cells(g, cells, count, lo, hi)
             if claims is not None:
-                claimed.append(_blocks(ev, c[claims[ray]]))
+                # per sample by repeating per ray, which streams, where indexing by ray gathers
+                claiming = np.repeat(claims[lo:hi], count[lo:hi])
+                claimed.append(_blocks(ev, c[claiming]))
             s_ = slot[c]
             in_hit = s_ >= 0
             crossing = np.flatnonzero(in_hit & (k < np.repeat(short[lo:hi], count[lo:hi])))
@@ -478,7 +480,7 @@ def gather(rays: "Rays | RayBatches", cfg: EvidenceConfig = EvidenceConfig(), fr
             j = c_[first_in_cell]
             newer = rank[r_[first_in_cell]] > last_near[j]
             counts += np.bincount(2 * j + newer, minlength=2 * n_hit)
-            stop = np.flatnonzero(in_hit if claims is None else in_hit | claims[ray])
+            stop = np.flatnonzero(in_hit if claims is None else in_hit | claiming)
             if len(stop) > cfg.cache * len(ray) / total:
                 kept.append((lo, hi))
             else:
@@ -511,7 +513,9 @@ def _blocks(ev: Evidence, c: np.ndarray) -> np.ndarray:
     """The blocks (``claim_block`` cells a side, keyed as one int64) that cells ``c`` lie in."""
     ix, iy = ev.cells.xy(c)
     b = ev.claim_block
-    return np.unique((iy // b) * (1 << 31) + ix // b)
+    key = (iy // b) * (1 << 31) + ix // b
+    # a ray's samples run through a block one after another: the repeats go before the sort
+    return np.unique(key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key)
 
 
 #: occupied cells from which ``bridged`` works on two threads
