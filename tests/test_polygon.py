@@ -314,3 +314,12 @@ def test_the_robots_footprint_is_free_behind_the_laser_and_up_to_its_own_returns
     # with no footprint, the fan of a scan that saw nothing has no area beyond the sensor's own body
     ring0 = scan_polygon(scan, free, status, FAN).ring
     assert shapely.Polygon(ring0.vertices).area < 0.01
+
+
+@given(arrays(np.float64, st.tuples(st.integers(0, 40), st.just(2)), elements=st.floats(-1e6, 1e6)))
+def test_signed_area_is_the_shoelace_sum_with_the_ring_rolled_by_one(v):
+    # the shoelace formula as written before (np.roll), to the last bit: orientation tests hang on it
+    from fuzzybrep.geometry import signed_area
+
+    x, y = v[:, 0], v[:, 1]
+    assert signed_area(v) == 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
