@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from _synthetic import room, scan_of
 
-from fuzzybrep.mapping import evidence
+from fuzzybrep.mapping import bridge, evidence
 from fuzzybrep.mapping.own_surface import own_margins
 from fuzzybrep.mapping import build
 from fuzzybrep.mapping.build import BuildConfig, build_map, rays_of
@@ -238,7 +238,7 @@ def test_bridged_is_its_definition_over_a_metre_where_halves_round_unevenly(seed
     ev = evidence.Evidence(np.zeros(2), 0.05, (ny, nx), occupied.astype(np.int32), occupied)
     if threads:  # the displacements split between two threads, as for a large log's many cells
         monkeypatch.setattr(evidence.os, "cpu_count", lambda: 2)
-        monkeypatch.setattr(evidence, "BRIDGE_THREADS_FROM", 0)
+        monkeypatch.setattr(bridge, "THREADS_FROM", 0)
     assert np.array_equal(evidence.bridged(ev, 1.0), bridge_by_pairs(occupied, nx, 1.0))
 
 

@@ -42,6 +42,7 @@ from typing import Callable
 import numpy as np
 import shapely
 
+from .bridge import segment_cells
 from .cells import TILE, Cells
 from .own_surface import own_margins
 
@@ -518,10 +519,6 @@ def _blocks(ev: Evidence, c: np.ndarray) -> np.ndarray:
     return np.unique(key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key)
 
 
-#: occupied cells from which ``bridged`` works on two threads
-BRIDGE_THREADS_FROM = 32_000
-
-
 def bridged(ev: Evidence, span: float) -> np.ndarray:
     """(cells.size,) bool: occupied, or on the segment between two occupied cells ``span`` or less apart.
 
@@ -556,72 +553,7 @@ def bridged(ev: Evidence, span: float) -> np.ndarray:
         occ = occ[near]
         if len(occ) < 2:
             return out
-    ix, iy = ev.cells.xy(occ)
-    r = span / ev.cell
-    m = int(np.floor(r))
-    # a dense bitmap over the occupied cells' box, padded by the span: its look-ups and marks are
-    # one add each, where the tiled store's index is eight operations. Shifted by even amounts:
-    # np.rint rounds a half to even, so an odd shift moved segments' cells
-    sx = m + (m - int(ix.min())) % 2 - int(ix.min())
-    sy = -(int(iy.min()) - int(iy.min()) % 2)
-    lx, ly = ix + sx, iy + sy
-    w, h = int(lx.max()) + 1 + m, int(ly.max()) + 1 + m
-    itype = np.int32 if h * w < 2**31 else np.int64
-    # the cells by the parity of (lx, ly): a segment's cells, rint(l + t·d), lie at offsets from
-    # its first cell that depend on l only through its parity (a half rounds to even), so each
-    # displacement's offsets are worked out once per parity and added to the cells' positions:
-    # the marks (some twenty per pair, 1.7 M pairs on Intel) were nine tenths of the time
-    parity = (lx & 1) | ((ly & 1) << 1)
-    order = np.argsort(parity, kind="stable")
-    lx, ly, parity = lx[order], ly[order], parity[order]
-    groups = np.searchsorted(parity, np.arange(5))
-    at = (ly * w + lx).astype(itype)
-    occupied = np.zeros(h * w, bool)
-    occupied[at] = True
-    # the pad (m cells left, right and above; dy >= 0) keeps every look-up inside the bitmap;
-    # each pair once (dy > 0, or dy = 0 and dx > 0); neighbouring cells leave nothing between
-    shifts = [(dx, dy) for dy in range(0, m + 1) for dx in range(-m, m + 1)
-              if max(abs(dx), dy) > 1 and not (dy == 0 and dx < 0) and dx * dx + dy * dy <= r * r]
-
-    def mark(part):
-        marks = np.zeros(h * w, bool)
-        for dx, dy in part:
-            a = np.flatnonzero(occupied[at + itype(dy * w + dx)])
-            if not len(a):
-                continue
-            n = 2 * max(abs(dx), dy)  # half-cell steps
-            t = np.arange(1, n) / n
-            fx, fy = t * dx, t * dy
-            # a step whose t·d is a half only to within rounding (t = 15/22 · 11 is 7.4999...):
-            # l + t·d then rounds by l's size, not its parity, so those steps are rounded per cell
-            ragged = np.zeros(n - 1, bool)
-            for f in (fx, fy):
-                frac = f - np.floor(f)
-                ragged |= (np.abs(frac - 0.5) < 1e-6) & (frac != 0.5)
-            cut = np.searchsorted(a, groups)
-            for p in range(4):
-                first = a[cut[p] : cut[p + 1]]
-                if len(first):
-                    px, py = p & 1, p >> 1
-                    off = (np.rint(py + fy[~ragged]) - py) * w + (np.rint(px + fx[~ragged]) - px)
-                    marks[(at[first, None] + off.astype(itype)).ravel()] = True
-            if ragged.any():
-                px = np.rint(lx[a, None] + fx[ragged]).astype(np.int64)
-                py = np.rint(ly[a, None] + fy[ragged]).astype(np.int64)
-                marks[(py * w + px).ravel()] = True
-        return marks
-
-    # the displacements in two halves on the machine's cores (NumPy lets go of the GIL while it
-    # adds and marks), each half into a bitmap of its own: the marks are the same in any order.
-    # Only for many occupied cells: Freiburg 079's 40 k went from 0.41 to 0.26 s, where Intel's
-    # 22 k took longer (0.15 -> 0.17 s: a displacement's few pairs hold the GIL between calls)
-    parts = [shifts[j::2] for j in range(2)] if (os.cpu_count() or 1) > 1 and len(occ) >= BRIDGE_THREADS_FROM else [shifts]
-    marks = None
-    for part in _parallel(mark, parts):
-        marks = part if marks is None else np.logical_or(marks, part, out=marks)
-    marks &= ~occupied
-    k = np.flatnonzero(marks)
-    kx, ky = k % w - sx, k // w - sy
+    kx, ky = segment_cells(*ev.cells.xy(occ), span / ev.cell)
     inside = (kx >= 0) & (kx < nx) & (ky < ny)
     out[ev.cells.index(kx[inside], ky[inside])] = True
     return out
