@@ -1,6 +1,6 @@
 """Maps from drifting odometry (issue 22): ``build --align`` on every shared CARMEN log.
 
-    python benchmarks/align.py [--datasets DIR] [--repeat 1] [--only intel,aces] [--docs docs] [--plots DIR]
+    python benchmarks/align.py [--datasets DIR] [--repeat 1] [--seeds 5] [--only intel,aces] [--docs docs] [--plots DIR]
 
 For each ``*.log.gz`` in ``DIR/carmen``, the log's corrected poses are the truth and
 ``sim.drift``'s benchmark model (5 % of distance, 2°/m, 2 % of every turn, random error; seed 0)
@@ -16,7 +16,10 @@ held-out sensor positions in the map's free space):
 Trajectory error of the aligned poses against the corrected ones: the translational RMSE with
 the first pose anchored (the odometry starts at the true first pose, so the frames agree), and
 the absolute trajectory error (ATE: RMSE after the best rigid fit, Horn's method, the TUM
-benchmark's measure) beside it. Cost: the CPU seconds of ``build_map`` + ``fuzzify`` with
+benchmark's measure) beside it; the anchored RMSE again with ``--seeds`` draws of the odometry's
+random error (median / worst: a log nobody has seen is another draw); and how far the log's own
+first pose is turned against the map its corrected poses make (``anchor_disagreement``), with
+the anchored RMSE that turn alone costs. Cost: the CPU seconds of ``build_map`` + ``fuzzify`` with
 ``--align`` over those without, on the same drifting scans, interleaved (plain, aligned, plain,
 ...) ``--repeat`` times, the medians' ratio. Pictures of the aligned and corrected maps go to
 ``--plots`` (default out/align/) for a person to look at.
@@ -68,6 +71,34 @@ def ate(a: np.ndarray, b: np.ndarray) -> float:
     return rmse((P - mp) @ R.T + mq, Q)
 
 
+def anchor_disagreement(scans, radius: float = 5.0) -> float:
+    """Radians by which the log's own first pose disagrees with the map its corrected poses make:
+    the first scan aligned (``use.align.align``, from that pose) to the surfaces of the corrected
+    scans within ``radius`` of it, its three successors left out. The aligned poses keep the first
+    pose as it is (the map's frame), so a corrected map turned by this much against its own first
+    scan counts, in the anchored RMSE, at every pose (``anchor_floor``)."""
+    from fuzzybrep.mapping.align_scans import AlignConfig, _Surfaces
+    from fuzzybrep.use.align import align
+
+    true = np.array([s.pose for s in scans])
+    near = [j for j in range(4, len(scans)) if np.hypot(*(true[j, :2] - true[0, :2])) < radius]
+    if not near:
+        return 0.0
+    cfg = AlignConfig()
+    surf = _Surfaces([scans[0]] + [scans[j] for j in near], cfg)
+    index = surf.index(list(range(1, len(near) + 1)), np.vstack((true[:1], true[near])))
+    res = align(surf.points[0], index, true[0], width=cfg.width, start_width=cfg.start_width, max_iterations=40)
+    return float(np.angle(np.exp(1j * (res.pose[2] - true[0, 2]))))
+
+
+def anchor_floor(true: np.ndarray, angle: float) -> float:
+    """The anchored RMSE of the corrected poses themselves turned by ``angle`` about the first pose."""
+    c, s = np.cos(angle), np.sin(angle)
+    d = true[:, :2] - true[0, :2]
+    turned = true[0, :2] + d @ np.array([[c, s], [-s, c]])
+    return rmse(turned, true)
+
+
 def held_out(scans) -> dict:
     """The held-out figures of the map of every second scan; {"error": message} when no map can be
     built (poses so far off that the evidence grid would not fit: the build's own one-line error)."""
@@ -98,7 +129,7 @@ def cost(drifting, repeat: int) -> dict:
     return {"plain_cpu": p, "align_cpu": a, "ratio": a / p}
 
 
-def bench(name: str, path: Path, repeat: int, plots: Path | None) -> dict:
+def bench(name: str, path: Path, repeat: int, plots: Path | None, seeds: int = 1) -> dict:
     print(f"[align {name}] read, drift, align", file=sys.stderr, flush=True)
     scans = read_scans(path)
     true = np.array([s.pose for s in scans])
@@ -115,6 +146,11 @@ def bench(name: str, path: Path, repeat: int, plots: Path | None) -> dict:
            "max_error": float(np.hypot(*(result.poses[:, :2] - true[:, :2]).T).max()),
            "heading_rmse_deg": float(np.degrees(np.sqrt(np.mean(np.angle(np.exp(1j * (result.poses[:, 2] - true[:, 2]))) ** 2)))),
            "loops": result.loops, "poor": int(len(result.poor())), "align_cpu_once": t_align}
+    row["anchor_deg"] = float(np.degrees(anchor_disagreement(scans)))
+    row["anchor_floor"] = anchor_floor(true, np.radians(row["anchor_deg"]))
+    # the same log with other draws of the odometry's random error: what an unseen log may give
+    row["seed_rmse"] = [row["rmse"]] + [rmse(align_scans(drift_scans(scans, DriftModel.benchmark(), seed=k)).poses, true)
+                                        for k in range(1, seeds)]
     print(f"[align {name}] rmse {row['rmse']:.3f} m (ATE {row['ate']:.3f}), {result.loops} loops; held-out maps",
           file=sys.stderr, flush=True)
     row["corrected"] = held_out(scans)
@@ -150,12 +186,18 @@ def markdown(rows: list[dict], repeat: int) -> str:
            "α = 0 band; poses in free: held-out sensor positions inside the map's free space. "
            f"Cost: CPU time of build + fuzzify with `--align` ÷ without, same scans, median of {repeat} interleaved runs. "
            "Logs marked * are the ones Done-when names (tuned on); the others were not tuned on.", "",
-           "| log | scans | travel | odometry RMSE | aligned RMSE | ATE | max error | loops | poor scans | cost ratio |",
-           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+           "Anchor: the log's own first pose against the map its corrected poses make (its first scan aligned to "
+           "the corrected scans within 5 m), and the anchored RMSE that turn alone gives the corrected poses "
+           "(the aligned poses keep the first pose: the map's frame). "
+           f"Seeds: aligned RMSE with the odometry's random error drawn with seeds 0-{max(len(r['seed_rmse']) for r in rows) - 1 if rows else 0}, median / worst.", "",
+           "| log | scans | travel | odometry RMSE | aligned RMSE | ATE | max error | seeds | anchor | loops | poor scans | cost ratio |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         star = "*" if r["log"] in JUDGED else ""
         out.append(f"| {r['log']}{star} | {r['scans']} | {r['travel']:.0f} m | {r['odometry_rmse']:.2f} m | "
-                   f"**{r['rmse']:.3f} m** | {r['ate']:.3f} m | {r['max_error']:.2f} m | {r['loops']} | {r['poor']} | "
+                   f"**{r['rmse']:.3f} m** | {r['ate']:.3f} m | {r['max_error']:.2f} m | "
+                   f"{np.median(r['seed_rmse']):.3f} / {max(r['seed_rmse']):.3f} m | "
+                   f"{r['anchor_deg']:+.2f}° ({r['anchor_floor']:.3f} m) | {r['loops']} | {r['poor']} | "
                    + (f"**{r['cost']['ratio']:.2f}×** ({r['cost']['align_cpu']:.1f} s ÷ {r['cost']['plain_cpu']:.1f} s) |"
                       if r["cost"] else "n/a (no map) |"))
     out += ["", "| log | violations: corrected / aligned / odometry | explained: corrected / aligned / odometry | "
@@ -166,9 +208,12 @@ def markdown(rows: list[dict], repeat: int) -> str:
         star = "*" if r["log"] in JUDGED else ""
         if any("error" in m for m in (c, a, o)):
             na = lambda m, k: "no map" if "error" in m else pct(m[k])  # noqa: E731
+            both = "error" not in c and "error" not in a
+            dv = f"{100 * (a['violations'] - c['violations']):+.2f} points" if both else "n/a"
+            de = f"{100 * (a['explained'] - c['explained']):+.2f} points" if both else "n/a"
             out.append(f"| {r['log']}{star} | {na(c, 'violations')} / {na(a, 'violations')} / {na(o, 'violations')} | "
                        f"{na(c, 'explained')} / {na(a, 'explained')} / {na(o, 'explained')} | "
-                       f"{na(c, 'poses_in_free')} / {na(a, 'poses_in_free')} / {na(o, 'poses_in_free')} | n/a | n/a |")
+                       f"{na(c, 'poses_in_free')} / {na(a, 'poses_in_free')} / {na(o, 'poses_in_free')} | {dv} | {de} |")
             continue
         out.append(f"| {r['log']}{star} | {pct(c['violations'])} / **{pct(a['violations'])}** / {pct(o['violations'])} | "
                    f"{pct(c['explained'])} / **{pct(a['explained'])}** / {pct(o['explained'])} | "
@@ -181,12 +226,13 @@ def markdown(rows: list[dict], repeat: int) -> str:
     return "\n".join(out) + "\n"
 
 
-def run(d: Path, repeat: int = 1, only: list[str] | None = None, plots: Path | None = None) -> tuple[str, list[dict]]:
+def run(d: Path, repeat: int = 1, only: list[str] | None = None, plots: Path | None = None,
+        seeds: int = 5) -> tuple[str, list[dict]]:
     rows = []
     for name, p in every_log(d).items():
         if only and name not in only:
             continue
-        rows.append(bench(name, p, repeat, plots))
+        rows.append(bench(name, p, repeat, plots, seeds))
     return markdown(rows, repeat), rows
 
 
@@ -197,13 +243,15 @@ def main(argv=None) -> int:
     ap.add_argument("--only", help="comma-separated log names (default: every *.log.gz)")
     ap.add_argument("--docs", help="folder of align.md, whose align block gets the table")
     ap.add_argument("--plots", default="out/align", help="folder for the maps' pictures ('' for none)")
+    ap.add_argument("--seeds", type=int, default=5, help="draws of the odometry's random error for the seeds column")
     ap.add_argument("--json", default=str(HERE / "align.json"))
     args = ap.parse_args(argv)
     d = Path(args.datasets) if args.datasets else datasets()
     if d is None:
         print(f"no CARMEN logs under any of {SEARCHED}: nothing to measure", file=sys.stderr)
         return 1
-    md, rows = run(d, args.repeat, args.only.split(",") if args.only else None, Path(args.plots) if args.plots else None)
+    md, rows = run(d, args.repeat, args.only.split(",") if args.only else None, Path(args.plots) if args.plots else None,
+                   args.seeds)
     print(md)
     Path(args.json).write_text(json.dumps(rows, indent=1, default=float))
     if args.docs:

@@ -161,6 +161,102 @@ def test_poor_alignment_is_flagged():
     assert result.metadata()["poor_scans"] == len(result.poor())
 
 
+# -- the odometry's systematic error, learnt -----------------------------------------------------
+
+def _arcs(rng: np.random.Generator, n: int) -> np.ndarray:
+    """n stretches (distance, turn) of a robot's travel: a few metres each, some straight, some round corners."""
+    d = rng.uniform(2.0, 6.0, n)
+    turn = np.where(rng.random(n) < 0.5, rng.normal(0, 0.1, n), rng.choice([-1, 1], n) * rng.uniform(0.5, 2.0, n))
+    return np.column_stack((d, turn))
+
+
+def _chord(d: float, turn: float) -> np.ndarray:
+    c = d * np.sinc(turn / (2 * np.pi))
+    return np.array([c * math.cos(turn / 2), c * math.sin(turn / 2), turn])
+
+
+def test_odometry_calibration_learns_umbmark_errors_and_takes_them_out():
+    from fuzzybrep.mapping.calibrate_odometry import OdometryCalibration
+
+    rng = np.random.default_rng(4)
+    a, kappa, c = 0.05, math.radians(2.0), 0.02  # the benchmark's systematic drift
+    cal = OdometryCalibration()
+    for d, turn in _arcs(rng, 60):
+        reported = _chord(d * (1 + a), (1 + c) * turn + kappa * d)
+        cal.learn(reported, _chord(d, turn) + [rng.normal(0, 0.01), rng.normal(0, 0.01), rng.normal(0, 0.002)],
+                  d * (1 + a), reported[2])
+    k_, c_ = cal.kappa_c
+    assert abs(cal.a - a) < 0.005 and abs(k_ - kappa) < math.radians(0.2) and abs(c_ - c) < 0.01
+    # a step the odometry reports is put back to the step the robot made
+    for d, turn in ((1.0, 0.0), (0.7, 0.4), (0.1, -1.2)):
+        reported = _chord(d * (1 + a), (1 + c) * turn + kappa * d)
+        fixed = cal.correct(reported)
+        assert np.hypot(*(fixed[:2] - _chord(d, turn)[:2])) < 0.01 * d + 0.002
+        assert abs(wrap(fixed[2] - turn)) < math.radians(0.3)
+    # odometry without systematic error is left as it is, and nothing is corrected before anything is learnt
+    plain = OdometryCalibration()
+    assert np.array_equal(plain.correct(np.array([1.0, 0.1, 0.2])), [1.0, 0.1, 0.2])
+    for d, turn in _arcs(rng, 30):
+        plain.learn(_chord(d, turn), _chord(d, turn), d, turn)
+    assert abs(plain.a) < 1e-9 and np.allclose(plain.kappa_c, 0.0, atol=1e-9)
+
+
+# -- a loop match that could be one bay along --------------------------------------------------
+
+def _corridor(bays: int, bay: float = 3.0, irregular: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Segments of a 2 m wide corridor along x whose walls have a door recess every ``bay`` m (1 m
+    wide, 0.3 m deep), or, ``irregular``, recesses of other widths and depths at other places."""
+    rng = np.random.default_rng(7)
+    a, b = [], []
+    for side in (-1.0, 1.0):
+        for k in range(bays):
+            x0 = k * bay
+            lo, wide, deep = (rng.uniform(0.1, 1.2), rng.uniform(0.4, 1.6), rng.uniform(0.1, 0.5)) if irregular else (1.0, 1.0, 0.3)
+            pts = [(x0, side), (x0 + lo, side), (x0 + lo, side * (1 + deep)), (x0 + lo + wide, side * (1 + deep)),
+                   (x0 + lo + wide, side), (x0 + bay, side)]
+            a += pts[:-1]
+            b += pts[1:]
+    return np.array(a, float), np.array(b, float)
+
+
+def _scan_of(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spacing: float = 0.05) -> np.ndarray:
+    """Points along the segments within 6 m of ``pose``, in its frame (what a scan there would see, near enough)."""
+    from fuzzybrep.use.align import sample_segments
+
+    pts, _ = sample_segments(a, b, spacing)
+    pts = pts[np.hypot(*(pts - pose[:2]).T) < 6.0]
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    d = pts - pose[:2]
+    return np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]))
+
+
+def test_a_loop_match_one_bay_along_a_repeating_corridor_has_a_rival():
+    from fuzzybrep.mapping.align_scans import _rival
+    from fuzzybrep.use.align import SegmentIndex, align
+
+    cfg = AlignConfig()
+    a, b = _corridor(8)
+    index = SegmentIndex(a, b, cfg.spacing)
+    true = np.array([10.3, 0.1, 0.02])
+    pts = _subsample_points(_scan_of(a, b, true))
+    res = align(pts, index, true + [0.05, 0.03, 0.01], width=cfg.width, start_width=cfg.start_width)
+    assert np.hypot(*(res.pose[:2] - true[:2])) < 0.05  # the match itself is right ...
+    # ... but the bays either side fit as well: the loop edge must not say which bay
+    u = _rival(pts, index, res, true, 4.0, cfg)
+    assert u is not None and abs(u[0]) > 0.95  # along the corridor
+    # a corridor whose doors do not repeat has one place only
+    a2, b2 = _corridor(8, irregular=True)
+    index2 = SegmentIndex(a2, b2, cfg.spacing)
+    pts2 = _subsample_points(_scan_of(a2, b2, true))
+    res2 = align(pts2, index2, true + [0.05, 0.03, 0.01], width=cfg.width, start_width=cfg.start_width)
+    assert np.hypot(*(res2.pose[:2] - true[:2])) < 0.05
+    assert _rival(pts2, index2, res2, true, 4.0, cfg) is None
+
+
+def _subsample_points(p: np.ndarray, n: int = 100) -> np.ndarray:
+    return p[np.linspace(0, len(p) - 1, min(n, len(p))).round().astype(int)]
+
+
 # -- the command --------------------------------------------------------------------------------
 
 def test_cli_build_align_writes_aligned_poses_and_quality(tmp_path, capsys):
@@ -174,10 +270,17 @@ def test_cli_build_align_writes_aligned_poses_and_quality(tmp_path, capsys):
     assert cli.main(["build", str(log), "--out", str(out), "--align", "--widen-tme"]) == 0
     err = capsys.readouterr().err
     assert "--align: 40 scans aligned from odometry" in err and "--widen-tme: TME" in err
+    assert "--align: odometry as learnt from" in err and "taken out of every step" in err
     m = read_map(out)
-    assert _rmse(m.poses, true[:40]) < 0.35 < _rmse(odometry_of(drifted[:40]), true[:40])
+    # the map file holds the poses align_scans finds (a few decimetres off along the floor's bare
+    # corridors, tens of metres better than the odometry)
+    assert np.allclose(m.poses[:, :3], align_scans(drifted[:40]).poses, atol=1e-6)
+    assert _rmse(m.poses, true[:40]) < 0.5 < 20 * 0.5 < _rmse(odometry_of(drifted[:40]), true[:40])
     al = m.metadata["alignment"]
     assert len(al["inliers"]) == len(al["sigma"]) == 40
+    # the odometry's systematic error as learnt: the benchmark's is 5 % and 2°/m, to the left
+    assert al["odometry_error"]["stretches"] > 0
+    assert 0 < al["odometry_error"]["distance"] < 0.08 and 0 < al["odometry_error"]["heading_deg_per_m"] < 3
     # without --align, a log with odometry columns is mapped at its x, y, theta (here the truth)
     assert cli.main(["build", str(log), "--out", str(plain_out), "--quiet"]) == 0
     assert "alignment" not in read_map(plain_out).metadata
@@ -201,8 +304,8 @@ DATA = Path(os.environ.get("FUZZYBREP_DATASETS", "/work/shared/datasets")) / "ca
 
 
 @pytest.mark.skipif(not os.environ.get("FUZZYBREP_BIG_LOGS"), reason="real-log alignment runs only with FUZZYBREP_BIG_LOGS=1")
-@pytest.mark.parametrize("name", ["intel", "aces"])
-def test_real_log_alignment_from_benchmark_drift(name):
+@pytest.mark.parametrize("name, bound", [("intel", 0.2), ("aces", 0.2), ("fhw", 1.0), ("orebro", 1.0)])
+def test_real_log_alignment_from_benchmark_drift(name, bound):
     from fuzzybrep.scans.read import read_scans
 
     path = DATA / f"{name}-corrected.log.gz"
@@ -211,4 +314,4 @@ def test_real_log_alignment_from_benchmark_drift(name):
     scans = read_scans(path)
     true = np.array([s.pose for s in scans])
     result = align_scans(drift_scans(scans, DriftModel.benchmark(), seed=0))
-    assert _rmse(result.poses, true) < 0.25
+    assert _rmse(result.poses, true) < bound

@@ -157,6 +157,8 @@ def run(args) -> int:
         poor = al.poor()
         align_notes.append(f"--align: {len(scans)} scans aligned from odometry, {al.loops} loop closure(s); "
                            f"median match {100 * float(np.median(al.quality.inliers)):.0f} % of returns")
+        if al.calibration is not None and al.calibration.steps:
+            align_notes.append(f"--align: {al.calibration.describe()}, taken out of every step")
         if len(poor):
             share = len(poor) / len(scans)
             align_notes.append(f"note: alignment poor for {len(poor)} scan(s) ({100 * share:.1f} %; first: "

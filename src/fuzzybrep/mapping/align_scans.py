@@ -41,8 +41,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..scans.scan import Scan, compose, relative, wrap
-from ..use.align import SegmentIndex, align
+from ..use.align import SegmentIndex, align, sample_segments, transform
 from . import pose_graph
+from .calibrate_odometry import OdometryCalibration
 
 
 #: the floor under a match's standard deviation (``_edge_information``): metres, radians
@@ -89,6 +90,11 @@ class AlignConfig:
     iterations: int = 20  #: Gauss-Newton iterations of a scan's match at most
     loop_iterations: int = 30  #: ... of a loop match
     odometry: OdometryNoise = field(default_factory=OdometryNoise)
+    #: learn the odometry's systematic error from the well-matched steps and take it out of the
+    #: next steps (``mapping.calibrate_odometry``)
+    calibrate: bool = True
+    calibrate_sigma: float = 0.02  #: a stretch teaches it between scans whose match alone fixes them this well (m), every way
+    calibrate_stretch: float = 3.0  #: ... at least this far apart (m of odometry travel)
     loop_closure: bool = True
     loop_every: float = 2.0  #: try a loop closure every this many metres of travel
     loop_travel: float = 8.0  #: a place passed at least this much travel ago is a loop candidate
@@ -109,6 +115,17 @@ class AlignConfig:
     loop_sigma: float = 0.05  #: and its position known this well across the corridor at least (m)
     loop_heading_sigma: float = math.radians(1.0)  #: and its heading this well
     loop_reoptimise: float = 0.20
+    #: a loop match must be unique (``_rival``): along the direction it constrains least, profiled
+    #: every loop_probe metres, no other pose farther than loop_unique may explain nearly as
+    #: much of the scan (loop_rival of its mean membership): a corridor whose doors repeat has one
+    loop_probe: float = 0.1
+    loop_unique: float = 0.25
+    loop_rival: float = 0.95
+    probe_iterations: int = 12  #: Gauss-Newton iterations of a probe at most (it need only show where it goes)
+    refine: int = 1  #: passes of ``_refine`` after the online pass (0: none)
+    refine_radius: float = 3.0  #: a key scan this near, passed at least loop_travel ago (or later), is matched
+    refine_move: float = 0.3  #: a refinement match moving a scan farther than this is not believed
+    refine_every: float = 1.0  #: a key scan is matched again once per this much travel
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
 
@@ -132,6 +149,8 @@ class AlignResult:
     loops: int  #: loop edges in the pose graph
     optimisations: int
     config: AlignConfig
+    #: the odometry's systematic error as learnt (``mapping.calibrate_odometry``; None when not learnt)
+    calibration: OdometryCalibration | None = None
 
     def poor(self) -> np.ndarray:
         """Indices of the scans whose alignment is poor (``AlignConfig.poor_*``)."""
@@ -141,9 +160,14 @@ class AlignResult:
     def metadata(self) -> dict:
         """What the map file keeps of the alignment (``metadata["alignment"]``)."""
         q = self.quality
-        return {"method": "scan-to-map alignment from odometry, pose-graph loop closure",
-                "loops": int(self.loops), "poor_scans": int(len(self.poor())),
-                "inliers": np.round(q.inliers, 4).tolist(), "sigma": np.round(q.sigma, 4).tolist()}
+        out = {"method": "scan-to-map alignment from odometry, pose-graph loop closure",
+               "loops": int(self.loops), "poor_scans": int(len(self.poor())),
+               "inliers": np.round(q.inliers, 4).tolist(), "sigma": np.round(q.sigma, 4).tolist()}
+        if self.calibration is not None:
+            kappa, c = self.calibration.kappa_c
+            out["odometry_error"] = {"distance": round(self.calibration.a, 5), "heading_deg_per_m": round(math.degrees(kappa), 4),
+                                     "turn": round(c, 5), "stretches": self.calibration.steps}
+        return out
 
 
 def odometry_of(scans: Sequence[Scan]) -> np.ndarray:
@@ -198,17 +222,26 @@ class _Surfaces:
             p, j = scan_points(s, cfg.max_range)
             step = float(np.median(np.diff(s.bearings))) if len(s.bearings) > 1 else 0.0
             self.points.append(p)
-            self.segments.append(surface_segments(p, j, step, cfg.join))
+            sa, sb = surface_segments(p, j, step, cfg.join)
+            self.segments.append((sa, sb, *sample_segments(sa, sb, cfg.spacing)))
+        self.spacing = cfg.spacing
 
-    def index(self, which: Sequence[int], poses: np.ndarray, spacing: float) -> SegmentIndex:
-        a, b = [], []
+    def index(self, which: Sequence[int], poses: np.ndarray) -> SegmentIndex:
+        """The segments (and their samples: a rigid motion moves them too) of scans ``which`` at ``poses``."""
+        parts: list[list[np.ndarray]] = [[], [], [], []]
+        offset = 0
         for k in which:
-            sa, sb = self.segments[k]
+            sa, sb, samples, of = self.segments[k]
             c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
             R = np.array([[c, s], [-s, c]])
-            a.append(sa @ R + poses[k, :2])
-            b.append(sb @ R + poses[k, :2])
-        return SegmentIndex(np.vstack(a) if a else np.zeros((0, 2)), np.vstack(b) if b else np.zeros((0, 2)), spacing)
+            for out, v in zip(parts, (sa, sb, samples)):
+                out.append(v @ R + poses[k, :2])
+            parts[3].append(of + offset)
+            offset += len(sa)
+        if not parts[0]:
+            return SegmentIndex(np.zeros((0, 2)), np.zeros((0, 2)), self.spacing)
+        a, b, samples = (np.vstack(v) for v in parts[:3])
+        return SegmentIndex(a, b, self.spacing, samples=samples, samples_of=np.concatenate(parts[3]))
 
 
 def _subsample(p: np.ndarray, n: int) -> np.ndarray:
@@ -220,6 +253,15 @@ def _sigma(cov: np.ndarray) -> float:
     if not np.isfinite(c).all():
         return math.inf
     return float(math.sqrt(max(np.linalg.eigvalsh(c).max(), 0.0)))
+
+
+def _well_fixed(information: np.ndarray, cfg: AlignConfig) -> bool:
+    """Whether a match's own information (no prior) fixes the scan's position to ``calibrate_sigma``
+    in every direction and its heading to ``loop_heading_sigma``: not a corridor."""
+    if not np.isfinite(information).all():
+        return False
+    return (np.linalg.eigvalsh(information[:2, :2]).min() >= cfg.calibrate_sigma ** -2
+            and information[2, 2] >= cfg.loop_heading_sigma ** -2)
 
 
 def _edge_information(cov: np.ndarray, heading: float, information: bool = False) -> np.ndarray:
@@ -265,21 +307,32 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
     loops = optimisations = 0
     last_try = last_loop = 0.0
     index, index_keys = None, None
+    calibration = OdometryCalibration()
+    fixed = 0  # the last scan a calibration stretch begins at (the first scan is where it is)
     for k in range(1, n):
         step = steps[k - 1]
         travel[k] = travel[k - 1] + math.hypot(step[0], step[1])
+        if cfg.calibrate:
+            step = calibration.correct(step)
         guess = compose(poses[k - 1], step)
         prior_info = cfg.odometry.information(step, poses[k - 1, 2])
         pts = _subsample(surf.points[k], cfg.max_points)
         window = tuple(keys[-cfg.window:])
         if window != index_keys:
-            index, index_keys = surf.index(window, poses, cfg.spacing), window
+            index, index_keys = surf.index(window, poses), window
         if len(index) and len(pts) >= 4:
             res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
                         max_iterations=cfg.iterations)
             poses[k] = res.pose
             inliers[k], sigma[k], matches[k] = res.inlier_share, _sigma(res.covariance), res.matches
             cov = res.covariance
+            if cfg.calibrate and res.inlier_share >= cfg.loop_inliers and _well_fixed(res.information, cfg):
+                f = fixed
+                if f is None or travel[k] - travel[f] >= cfg.calibrate_stretch:
+                    if f is not None:
+                        calibration.learn(relative(odo[f], odo[k]), relative(poses[f], poses[k]), travel[k] - travel[f],
+                                          float(steps[f:k, 2].sum()))
+                    fixed = k
         else:
             poses[k], inliers[k], matches[k] = guess, 0.0, 0
             cov = np.linalg.inv(prior_info)
@@ -314,7 +367,65 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
     if loops:
         poses = pose_graph.solve(poses, np.array(ei), np.array(ej), np.array(ez), np.array(einfo), np.array(robust))
         optimisations += 1
-    return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg)
+    edges = (ei, ej, ez, einfo, robust)
+    for _ in range(cfg.refine if loops else 0):
+        added = _refine(poses, keys, travel, surf, cfg, edges)
+        if not added:
+            break
+        loops += added
+        poses = pose_graph.solve(poses, *(np.array(e) for e in edges))
+        optimisations += 1
+    return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
+                       calibration if cfg.calibrate else None)
+
+
+def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces, cfg: AlignConfig,
+            edges: tuple[list, ...]) -> int:
+    """Once the loops have pulled the trajectory together, every key scan is matched again to the
+    key scans near it from another time (at least ``loop_travel`` before or after it), from its
+    corrected pose: the online pass closed a loop every ``loop_every`` metres where the drift still
+    let it; now every place seen twice ties its two visits together. Each match that explains the
+    scan (the loop's tests) and moves it less than ``refine_move`` adds a robust edge. Returns the
+    number of edges added to ``edges`` (ei, ej, ez, einfo, robust lists, extended in place)."""
+    ei, ej, ez, einfo, robust = edges
+    keys_a = np.asarray(keys)
+    added = 0
+    last = -math.inf
+    for c, k in enumerate(keys_a):
+        if travel[k] - last < cfg.refine_every:
+            continue
+        other = np.flatnonzero(np.abs(travel[keys_a] - travel[k]) >= cfg.loop_travel)
+        if not len(other):
+            continue
+        d = np.hypot(*(poses[keys_a[other], :2] - poses[k, :2]).T)
+        if d.min() > cfg.refine_radius:
+            continue
+        ci = int(other[np.argmin(d)])
+        j = int(keys_a[ci])
+        pts = _subsample(surf.points[k], cfg.max_points)
+        if len(pts) < 20:
+            continue
+        near = keys_a[max(0, ci - cfg.loop_window): ci + cfg.loop_window + 1]
+        near = near[np.abs(travel[near] - travel[k]) >= cfg.loop_travel]
+        index = surf.index(near.tolist(), poses)
+        if not len(index):
+            continue
+        last = travel[k]
+        res = align(pts, index, poses[k], width=cfg.width, start_width=2 * cfg.width, max_iterations=cfg.iterations)
+        info = res.information
+        if res.inlier_share < cfg.loop_inliers or not np.isfinite(info).all():
+            continue
+        if np.linalg.eigvalsh(info[:2, :2]).max() < cfg.loop_sigma ** -2 or info[2, 2] < cfg.loop_heading_sigma ** -2:
+            continue
+        if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
+            continue
+        ei.append(j)
+        ej.append(int(k))
+        ez.append(relative(poses[j], res.pose))
+        einfo.append(_edge_information(info, poses[j, 2], information=True))
+        robust.append(True)
+        added += 1
+    return added
 
 
 def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces,
@@ -339,7 +450,7 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
     j = int(old[c])
     radius = min(cfg.loop_radius + cfg.loop_slide * min(travel[k] - travel[j], since_loop), cfg.loop_max_radius)
     lo, hi = max(0, c - cfg.loop_window), c + cfg.loop_window + 1
-    index = surf.index(old[lo:hi].tolist(), poses, cfg.spacing)
+    index = surf.index(old[lo:hi].tolist(), poses)
     if not len(index):
         return None
     res = align(pts, index, poses[k], width=cfg.width, start_width=max(cfg.loop_start_width, d.min() / 2),
@@ -355,4 +466,40 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
         return None
     if math.hypot(*(res.pose[:2] - poses[k, :2])) > radius:  # it slid into another corridor
         return None
+    u = _rival(pts, index, res, poses[k], radius, cfg)
+    if u is not None:  # it knows across the corridor, not which bay along it: singular along it
+        M = np.eye(3)
+        M[:2, :2] -= np.outer(u, u)
+        info = M @ info @ M
     return j, res.pose, info
+
+
+def _rival(pts: np.ndarray, index: SegmentIndex, res, estimate: np.ndarray, radius: float, cfg: AlignConfig):
+    """The direction (2,) along which the loop match ``res`` has a rival, or None: a pose farther
+    than ``loop_unique`` along the direction the match constrains least, within ``radius`` of the
+    scan's ``estimate``, that explains nearly as much of the scan (``loop_rival`` × its mean
+    membership). A corridor whose doors or pillars repeat matches one bay along almost as well as
+    in the right one; its information says metres, not decimetres, only when the corridor is bare,
+    so the rival is looked for, not inferred: the scan's mean membership (kernel twice the
+    match's width) is profiled every ``loop_probe`` metres along that direction, all offsets in one
+    tree query, and each local maximum that comes near the match's is aligned from there."""
+    _, vec = np.linalg.eigh(res.information[:2, :2])
+    u = vec[:, 0]  # the least constrained direction
+    reach = radius + math.hypot(*(res.pose[:2] - estimate[:2]))
+    offsets = np.arange(-reach, reach + cfg.loop_probe / 2, cfg.loop_probe)
+    offsets = np.append(offsets[np.abs(offsets) > cfg.loop_unique], 0.0)
+    w = 2 * cfg.width
+    base = transform(pts, res.pose)
+    world = (base[None, :, :] + offsets[:, None, None] * u[None, None, :]).reshape(-1, 2)
+    _, d, _, _ = index.nearest(world, w)
+    grade = np.clip(1 - d / w, 0, None).reshape(len(offsets), -1).mean(axis=1)
+    mu0, grade, offsets = grade[-1], grade[:-1], offsets[:-1]
+    padded = np.r_[-np.inf, grade, -np.inf]
+    peak = (grade >= padded[:-2]) & (grade >= padded[2:]) & (grade >= cfg.loop_rival * mu0)
+    for o in offsets[peak][np.argsort(-grade[peak])][:4]:
+        start = res.pose + np.r_[o * u, 0.0]
+        alt = align(pts, index, start, width=cfg.width, start_width=w, max_iterations=cfg.probe_iterations)
+        if (math.hypot(*(alt.pose[:2] - res.pose[:2])) > cfg.loop_unique and alt.mu >= cfg.loop_rival * res.mu
+                and math.hypot(*(alt.pose[:2] - estimate[:2])) <= radius):
+            return u
+    return None

@@ -51,6 +51,18 @@ _KERNELS = {
 COARSE_ITERATIONS = 3
 
 
+def sample_segments(a: np.ndarray, b: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """(samples (s, 2), segment of each (s,)): both ends of every segment a_j → b_j and enough
+    points between them that none is farther than ``spacing`` from the next (all at once, no loop)."""
+    a, b = np.asarray(a, np.float64).reshape(-1, 2), np.asarray(b, np.float64).reshape(-1, 2)
+    d = b - a
+    count = np.maximum(np.ceil(np.hypot(d[:, 0], d[:, 1]) / spacing).astype(np.int64), 1) + 1
+    seg = np.repeat(np.arange(len(a)), count)
+    first = np.cumsum(count) - count
+    t = (np.arange(count.sum()) - np.repeat(first, count)) / np.repeat(count - 1, count)
+    return a[seg] + t[:, None] * d[seg], seg
+
+
 class SegmentIndex:
     """Line segments a_j → b_j ((m, 2) each) and the nearest of them to any point.
 
@@ -59,10 +71,13 @@ class SegmentIndex:
     kinds     (m,) small ints, optional (default 0); ``match`` says which kinds endpoints are
               fitted to (default: kind 0 only). Segments of other kinds still compete for being
               nearest: an endpoint nearest one of them is unknown, not matched.
+    samples, samples_of   the samples ``sample_segments(a, b, spacing)`` gives and the segment
+              of each, when the caller has them already (segments made once and moved rigidly:
+              their samples move with them)
     """
 
     def __init__(self, a: np.ndarray, b: np.ndarray, spacing: float = 0.02, kinds: np.ndarray | None = None,
-                 match: tuple[int, ...] = (0,)):
+                 match: tuple[int, ...] = (0,), samples: np.ndarray | None = None, samples_of: np.ndarray | None = None):
         a = np.asarray(a, np.float64).reshape(-1, 2)
         b = np.asarray(b, np.float64).reshape(-1, 2)
         if a.shape != b.shape:
@@ -80,14 +95,14 @@ class SegmentIndex:
         length = np.hypot(d[:, 0], d[:, 1])
         self.length = length
         self.direction = np.divide(d, length[:, None], out=np.zeros_like(d), where=length[:, None] > 0)
-        # samples per segment: both ends and enough between them (all at once, no loop)
-        count = np.maximum(np.ceil(length / spacing).astype(np.int64), 1) + 1
-        seg = np.repeat(np.arange(len(a)), count)
-        first = np.cumsum(count) - count
-        t = (np.arange(count.sum()) - np.repeat(first, count)) / np.repeat(count - 1, count)
-        self.samples = a[seg] + t[:, None] * d[seg]
+        if samples is None:
+            samples, seg = sample_segments(a, b, spacing)
+        else:
+            samples, seg = np.asarray(samples, np.float64).reshape(-1, 2), np.asarray(samples_of, np.int64).reshape(-1)
+        self.samples = samples
         self.sample_segment = seg
-        self.tree = cKDTree(self.samples) if len(seg) else None
+        # an unbalanced tree builds in half the time and answers as fast for points spread like these
+        self.tree = cKDTree(self.samples, balanced_tree=False, compact_nodes=False) if len(seg) else None
 
     def __len__(self) -> int:
         return len(self.a)
