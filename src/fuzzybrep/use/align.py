@@ -130,23 +130,27 @@ class SegmentIndex:
             return seg, dist, foot, normal
         # a sample within max_distance + spacing/2 can name a segment within max_distance
         _, k = self.tree.query(p, distance_upper_bound=max_distance + self.spacing / 2)
-        found = k < len(self.samples)
+        found = np.flatnonzero(k < len(self.samples))
         j = self.sample_segment[k[found]]
         a, u, L = self.a[j], self.direction[j], self.length[j]
-        ap = p[found] - a
+        pf = p[found]
+        ap = pf - a
         t = np.clip(ap[:, 0] * u[:, 0] + ap[:, 1] * u[:, 1], 0.0, L)
         q = a + t[:, None] * u
-        e = p[found] - q
+        e = pf - q
         d = np.hypot(e[:, 0], e[:, 1])
+        # only what lies within reach is worked out further (the same values, element by element:
+        # this is most of the scan matcher's time, a few hundred points a call)
+        ok = np.flatnonzero(d <= max_distance)
+        j, u, t, L, q, e, d = j[ok], u[ok], t[ok], L[ok], q[ok], e[ok], d[ok]
         # interior foot: the normal, turned to the point's side; beyond an end: towards the point
-        nrm = np.column_stack((-u[:, 1], u[:, 0]))
+        nrm = np.empty_like(u)
+        nrm[:, 0], nrm[:, 1] = -u[:, 1], u[:, 0]
         side = np.where(e[:, 0] * nrm[:, 0] + e[:, 1] * nrm[:, 1] < 0, -1.0, 1.0)
         interior = (t > 0) & (t < L)
-        dirn = np.where(interior[:, None] | (d[:, None] == 0), nrm * side[:, None],
-                        e / np.where(d > 0, d, 1.0)[:, None])
-        ok = d <= max_distance
-        idx = np.flatnonzero(found)[ok]
-        seg[idx], dist[idx], foot[idx], normal[idx] = j[ok], d[ok], q[ok], dirn[ok]
+        dirn = np.where((interior | (d == 0))[:, None], nrm * side[:, None], e / np.where(d > 0, d, 1.0)[:, None])
+        idx = found[ok]
+        seg[idx], dist[idx], foot[idx], normal[idx] = j, d, q, dirn
         return seg, dist, foot, normal
 
 
