@@ -651,3 +651,12 @@ def test_a_thin_wall_seen_from_both_sides_is_carved_as_one_hole():
     wall = max((shapely.Polygon(r.vertices) for reg in closed.regions for r in reg.holes), key=lambda h: h.area)
     assert wall.contains(on_wall).all() and closed.n_holes <= 3
     assert wall.area < 5.0 * 0.2  # a thin hole along the wall, not a block of the hall
+
+
+def test_own_margins_take_scans_of_no_rays_in_their_stride():
+    # per_scan with empty scans first, between and last: no neighbour across a scan's end
+    cos, sin = np.cos([0.0, 0.01, 0.02, 0.0, 0.01]), np.sin([0.0, 0.01, 0.02, 0.0, 0.01])
+    rays = evidence.Rays(np.zeros(5), np.zeros(5), cos, sin, np.full(5, 5.0), np.arange(5.0),
+                         np.ones(5, bool), np.full(5, 5.0), np.array([0, 3, 0, 2, 0]))
+    m = own_margins(rays, 0.12, np.radians(10.0))
+    assert m.shape == (5,) and np.isfinite(m).all() and (m >= 0.12).all()

@@ -39,7 +39,8 @@ def own_margins(b, margin: float, incidence: float, jump=None) -> np.ndarray:
     t = b.time
     same = (ox[:-1] == ox[1:]) & (oy[:-1] == oy[1:]) & (t[:-1] == t[1:])
     if b.per_scan is not None:
-        same[np.cumsum(b.per_scan)[:-1] - 1] = False
+        last = np.cumsum(b.per_scan)[:-1] - 1  # each scan's last ray (a scan of no rays has none)
+        same[last[(last >= 0) & (last < n - 1)]] = False
     step = np.abs(np.arcsin(np.clip(b.cos[:-1] * b.sin[1:] - b.sin[:-1] * b.cos[1:], -1, 1)))
     ok = same & b.hit[:-1] & b.hit[1:]
     ok[ok] = depth_continuous(r[:-1][ok], r[1:][ok], step[ok], jump)
