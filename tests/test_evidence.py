@@ -576,8 +576,10 @@ def corridor_passes(post: bool) -> tuple[list[Scan], Scan]:
     return [a, *passes], a
 
 
-def free_ranges(scans: list[Scan]) -> np.ndarray:
-    cfg = evidence.EvidenceConfig()
+GRAZING = evidence.EvidenceConfig(own_margin=0.12, own_incidence=np.radians(10.0))
+
+
+def free_ranges(scans: list[Scan], cfg: evidence.EvidenceConfig = GRAZING) -> np.ndarray:
     rays = rays_of(scans, classify_all(scans, BeamConfig(), PolygonConfig()))
     return evidence.clip(rays, evidence.gather(rays, cfg), cfg)
 
@@ -586,6 +588,9 @@ def test_a_wall_seen_at_a_grazing_angle_is_the_beams_own_surface():
     scans, a = corridor_passes(post=False)
     wall = grazing_beams(a)
     assert len(wall) > 20
+    # the default, a margin along the beam, stops the grazing ones short
+    plain = free_ranges(scans, evidence.EvidenceConfig())[: len(a.ranges)]
+    assert (plain[wall] < a.ranges[wall] - 0.1).sum() > 5
     free = free_ranges(scans)[: len(a.ranges)]
     # the later pass's copy of the wall, 6 cm in front of it across (up to 0.35 m along these
     # beams), is the wall itself: every beam reaches it. With a margin of 0.15 m along the beam
@@ -627,10 +632,10 @@ def test_a_beam_without_a_neighbour_on_its_surface_keeps_the_plain_margin():
     np.testing.assert_array_equal(own_margins(rays, 0.12, np.radians(10.0)), np.full(4, 0.12))
 
 
-def test_a_thin_wall_seen_from_both_sides_is_carved_as_one_hole():
+def test_carve_close_makes_a_thin_wall_seen_from_both_sides_one_hole():
     # a free-standing 2 cm partition in a hall; the two sides' poses are 4 cm off towards it, so
-    # their free space overlaps across it and only the carve keeps it. Cell by cell, its carved
-    # cells were a string of 5 cm boxes, most too small to stay holes: the wall was lost
+    # their free space overlaps across it and only the carve keeps it. Cell by cell (the default),
+    # its carved cells are a string of 5 cm boxes, most too small to stay holes: the wall is lost
     hall = shapely.box(0, 0, 8, 6)
     world = hall.difference(shapely.box(1.5, 2.99, 6.5, 3.01))
     rng = np.random.default_rng(1)
@@ -646,7 +651,7 @@ def test_a_thin_wall_seen_from_both_sides_is_carved_as_one_hole():
 
     cells = mapped(0.0)
     assert shapely.contains(cells.to_shapely(), on_wall).sum() > 10 and cells.n_holes > 20
-    closed = mapped(evidence.EvidenceConfig().carve_close)
+    closed = mapped(0.10)
     assert not shapely.contains(closed.to_shapely(), on_wall).any()
     wall = max((shapely.Polygon(r.vertices) for reg in closed.regions for r in reg.holes), key=lambda h: h.area)
     assert wall.contains(on_wall).all() and closed.n_holes <= 3
