@@ -196,16 +196,7 @@ def test_bridged_is_every_segment_between_two_occupied_cells_within_the_span(see
     rng = np.random.default_rng(seed)
     occupied = rng.random(nx * ny) < rng.uniform(0.02, 0.3)
     ev = evidence.Evidence(np.zeros(2), 0.05, (ny, nx), occupied.astype(np.int32), occupied)
-    want = occupied.copy()
-    iy, ix = np.divmod(np.flatnonzero(occupied), nx)
-    for i in range(len(ix)):
-        for j in range(i + 1, len(ix)):
-            dx, dy = ix[j] - ix[i], iy[j] - iy[i]
-            n = 2 * max(abs(dx), abs(dy))
-            if n > 2 and np.hypot(dx, dy) <= span / 0.05:
-                t = np.arange(1, n) / n
-                want[np.rint(iy[i] + t * dy).astype(int) * nx + np.rint(ix[i] + t * dx).astype(int)] = True
-    assert np.array_equal(evidence.bridged(ev, span), want)
+    assert np.array_equal(evidence.bridged(ev, span), bridge_by_pairs(occupied, nx, span))
 
 
 def bridge_by_pairs(occupied: np.ndarray, nx: int, span: float, cell: float = 0.05) -> np.ndarray:

@@ -167,23 +167,29 @@ def seen_free(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], free
     return before, after
 
 
-def seen_through(points: np.ndarray, scans: Sequence[Scan], config, margin: float) -> np.ndarray:
+def seen_through(points: np.ndarray, scans: Sequence[Scan], free: Sequence[np.ndarray], margin: float) -> np.ndarray:
     """Per point: did a beam of ``scans`` pass it by more than ``margin`` (``seen_free`` at any
-    time, the free ranges of ``config``'s spike filter)? An obstacle there that none of them saw
-    within ``margin`` was not there for them: a map true to those scans calls the place free."""
-    free = [f for f, _ in classify_all(scans, config.beams, config.polygon)]
+    time, ``free`` the scans' free ranges as ``spike_free`` gives them)? An obstacle there that
+    none of them saw within ``margin`` was not there for them: a map true to those scans calls
+    the place free."""
     before, _ = seen_free(points, np.full(len(points), np.inf), scans, free, margin)
     return before
 
 
-def came_and_went(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], config, margin: float) -> np.ndarray:
+def spike_free(scans: Sequence[Scan], config) -> list[np.ndarray]:
+    """Every scan's free ranges as the map uses them before evidence (``config``'s spike filter)."""
+    return [f for f, _ in classify_all(scans, config.beams, config.polygon)]
+
+
+def came_and_went(points: np.ndarray, times: np.ndarray, scans: Sequence[Scan], config, margin: float,
+                  free: Sequence[np.ndarray] | None = None) -> np.ndarray:
     """Per point: seen free by ``scans`` both before and after its time (``seen_free``), with the
     free ranges the map uses (``config``'s spike filter), beams passing ``margin`` or more beyond.
 
     For points of the scans themselves (a map judged on its own endpoints) the point's own scan
     counts neither way: it is neither before nor after its own time.
     """
-    free = [f for f, _ in classify_all(scans, config.beams, config.polygon)]
+    free = spike_free(scans, config) if free is None else free  # (``free``: already worked out)
     before, after = seen_free(points, times, scans, free, margin)
     return before & after
 
@@ -341,8 +347,9 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     tell()
     unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
     tell()
-    went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme)
-    through = seen_through(pts[viol][unseen], kept, config, tme)
+    kept_free = spike_free(kept, config)  # came and went and seen through ask the same beams
+    went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme, kept_free)
+    through = seen_through(pts[viol][unseen], kept, kept_free, tme)
     share = lambda v: float(v.sum() / len(pts))  # noqa: E731  (of all held-out endpoints)
     tell()
     grid = occupancy_grid(kept, resolution, max_usable=config.beams.max_usable)
