@@ -233,12 +233,12 @@ def kb(n: int) -> str:
     return f"{n / 1024:.1f} kB"
 
 
-def safe_cut_rows(d: Path, maps: dict, repeat: int) -> list[dict]:
+def safe_cut_rows(d: Path, maps: dict, repeat: int) -> tuple[list[dict], list[dict]]:
     """``safe_cut.py`` on the map of every log in ``d/carmen``: those ``bench_log`` built, and the
-    others built here with the same defaults."""
+    others built here with the same defaults. (rows at its three α, its α sweep per map)"""
     import safe_cut
 
-    rows = []
+    rows, sweeps = [], []
     for name, path in every_log(d).items():
         fz = maps.get(name)
         if fz is None:
@@ -246,7 +246,8 @@ def safe_cut_rows(d: Path, maps: dict, repeat: int) -> list[dict]:
             cfg = BuildConfig()
             fz = fuzzify(build_map(read_scans(path), cfg).crisp, tme=cfg.tme)
         rows += safe_cut.measure(name, fz, safe_cut.ALPHAS, max(repeat, 5))
-    return rows
+        sweeps.append(safe_cut.sweep(name, fz))
+    return rows, sweeps
 
 
 def markdown(results: list[dict], scaling: list[dict], alpha_md: str, env: dict, demo: str = "",
@@ -376,13 +377,13 @@ def main(argv=None) -> int:
     runs, seconds = demo_runs()
     import safe_cut
 
-    safe_rows = safe_cut_rows(d, maps, args.repeat)
+    safe_rows, safe_sweeps = safe_cut_rows(d, maps, args.repeat)
     md = markdown(results, scaling, alpha_md, env, demo_md(runs, seconds), (whole, grow),
-                  safe_cut.markdown(safe_rows, max(args.repeat, 5)))
+                  safe_cut.markdown(safe_rows, max(args.repeat, 5), safe_sweeps))
     Path(args.out).write_text(md)
     Path(args.out).with_suffix(".json").write_text(json.dumps({"env": env, "logs": results, "scaling": scaling,
                                                              "commands": whole, "commands_scaling": grow,
-                                                             "safe_cut": safe_rows}, indent=1, default=float))
+                                                             "safe_cut": safe_rows, "safe_cut_sweep": safe_sweeps}, indent=1, default=float))
     print(md)
     if args.readme:
         try:

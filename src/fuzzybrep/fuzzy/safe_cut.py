@@ -36,8 +36,7 @@ def prepare(fz) -> dict:
     out = {"V": V, "fm": fm, "sizes": s["sizes"], "start": s["start"], "next": s["next"], "function": f,
            "centre": centre, "scale": scale, "reach": float(S.REACH), "shell": shell,
            "region": np.repeat(np.arange(len(fz.crisp.regions)), [len(r.rings) for r in fz.crisp.regions]),
-           "width": np.minimum(np.maximum.reduceat(V[:, 0], s["start"]) - np.minimum.reduceat(V[:, 0], s["start"]),
-                               np.maximum.reduceat(V[:, 1], s["start"]) - np.minimum.reduceat(V[:, 1], s["start"]))}
+           "inradius": S.inradius_bound(V, s["start"], s["sizes"])}
     if f is not None:
         out["lines"] = S.safe_lines(V, s["sizes"])
     segs = shapely.linestrings(np.stack((V, V[s["next"]]), axis=1))
@@ -65,7 +64,7 @@ def safe_cut(fz, alpha: float) -> tuple[shapely.Geometry, shapely.Geometry]:
         if d == 0.0:
             return crisp, crisp
         lines = sf["lines"]
-        return tuple(S.proper(S.cut_paths(lines, side, d, scale, S.vanishing(sf["width"], sf["region"], sf["shell"],
+        return tuple(S.proper(S.cut_paths(lines, side, d, scale, S.vanishing(sf["inradius"], sf["region"], sf["shell"],
                                                                               side, d)), centre, scale)
                      for side in (0, 1))
     r = edge_reach(fz, alpha)
