@@ -10,6 +10,9 @@ $(BIN)/fuzzybrep: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'
+	@# bytecode, as pip compiles an installed package's: an editable install has none, and with
+	@# PYTHONDONTWRITEBYTECODE set every command would compile the package again at start-up
+	$(BIN)/python -m compileall -q src >/dev/null
 	@touch $@
 
 install: $(BIN)/fuzzybrep

@@ -163,20 +163,26 @@ class SafeLines:
     upto: tuple[np.ndarray, np.ndarray]
     rings: int
 
-    def select(self, side: int, d: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(vertex of each point, its direction, its ring) of one side at distance d."""
+    def select(self, side: int, d: float, drop: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(vertex of each point, its direction, its ring) of one side at distance d, without the
+        rings ``drop`` (bool per map ring) says to leave out (the spike discs always stay)."""
         b, mid = self.base[side], self.mid[side]
         mitre = self.upto[side] >= d  # per point: its vertex may take the apex at this distance
-        keep = np.flatnonzero(~mitre | mid)
+        keep = ~mitre | mid
+        if drop is not None and drop.any():
+            keep &= ~np.r_[drop, np.zeros(int(self.ring[side].max(initial=-1)) + 1 - len(drop), bool)][self.ring[side]]
+        keep = np.flatnonzero(keep)
         u = self.unit[side][keep]
         apex = mitre[keep]  # of the points kept, only the detours' middles take the apex
         u[apex] = self.apex[side][keep[apex]]
         return self.vertices[b[keep]], u, self.ring[side][keep]
 
-    def points(self, side: int, d: float) -> tuple[np.ndarray, np.ndarray]:
+    def points(self, side: int, d: float, drop: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(points (M, 2), ring of each) of one side at distance d: O(n) array arithmetic."""
-        v, u, r = self.select(side, d)
-        return v + d * u, r
+        v, u, r = self.select(side, d, drop)
+        u *= d
+        u += v
+        return u, r
 
 
 def orient(vertices: np.ndarray, sizes: np.ndarray, free_left: np.ndarray) -> np.ndarray:
@@ -316,10 +322,7 @@ def cut_paths(lines: SafeLines, side: int, d: float, scale: float,
     points (M, 2) and where each ring's (and each spike disc's) path starts. O(n) from the
     stored directions. ``drop``: rings (bool per ring) left out, as ones the offset swallows
     whole (``vanishing``)."""
-    pts, ring = lines.points(side, d + ROUND_UNITS / scale)
-    if drop is not None and drop.any():
-        keep = ~np.r_[drop, np.zeros(int(ring.max()) + 1 - len(drop), bool)][ring]  # spike discs stay
-        pts, ring = pts[keep], ring[keep]
+    pts, ring = lines.points(side, d + ROUND_UNITS / scale, drop)
     return pts, np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
 
 
