@@ -51,6 +51,11 @@ class BuildConfig:
     #: holes bounded by frontier edges alone (pockets no ray entered, no return near) and narrower
     #: than this are no map detail: the free space around them takes them in. None: TME
     pocket_width: float | None = None
+    #: runs of beams ending in unknown (no return, or beyond max_usable) narrower than this where
+    #: they reach beyond their neighbours are cut back to where they are this wide
+    #: (``scans.fingers``): the combs of thin frontier fingers outdoors. None: 2·TME, the band's
+    #: width, under which a sliver has no α = 0 inner cut; 0: off
+    finger_width: float | None = None
     unit: str = "m"
     #: align every scan to the map so far from its odometry (``mapping.align_scans``) and build
     #: from the aligned poses; None: the scans' poses are taken as they are
@@ -59,6 +64,10 @@ class BuildConfig:
     @property
     def pocket_limit(self) -> float:
         return self.tme if self.pocket_width is None else self.pocket_width
+
+    @property
+    def finger_limit(self) -> float:
+        return 2 * self.tme if self.finger_width is None else self.finger_width
 
     @property
     def simplify_tolerance(self) -> float:
@@ -121,6 +130,8 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
         else:
             ev, free = None, np.concatenate([f for f, _ in beams])
         free, status, clipped = _split_free(scans, beams, free)
+        near = ev.hits_within(config.kind_radius) if ev is not None else None
+        free = trim_fingers(scans, free, status, config.finger_limit, ev, near)
     with timer("scan polygons"):
         polygons = []
         for k in range(0, len(scans), _BATCH):
@@ -142,7 +153,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
                                 f"{config.beams.max_usable:g} {config.unit} too short)")
         crisp = BRepMap.from_shapely(geom, unit=config.unit)
     with timer("edge kinds"):
-        crisp = tag_edge_kinds(crisp, ev, config.kind_radius) if ev is not None else crisp
+        crisp = tag_edge_kinds(crisp, ev, config.kind_radius, near) if ev is not None else crisp
         crisp = fill_pockets(crisp, config.pocket_limit) if ev is not None else crisp
     return BuildResult(crisp, polygons, timer.t, clipped, int(sum(len(s.ranges) for s in scans)),
                        [order_note] if order_note else [], alignment, scans)
@@ -240,7 +251,37 @@ def _split_free(scans, beams, free: np.ndarray):
     return out_f, out_s, clipped
 
 
-def tag_edge_kinds(crisp: BRepMap, ev: evidence.Evidence, radius: float) -> BRepMap:
+def trim_fingers(scans, free: list, status: list, width: float, ev: "evidence.Evidence | None" = None,
+                 near: np.ndarray | None = None) -> list:
+    """Per scan, the free ranges with frontier fingers narrower than ``width`` cut back
+    (``scans.fingers``); scans with one beam count go together. With the evidence and its cells
+    near a hit (``near``), a beam the evidence clipped counts as ending in unknown where no hit
+    lies near its end."""
+    if width <= 0:
+        return free
+    from ..scans.fingers import finger_levels, open_ended
+
+    out = list(free)
+    groups: dict[int, list[int]] = {}
+    for k, s in enumerate(scans):
+        groups.setdefault(len(s.ranges), []).append(k)
+    for idx in groups.values():
+        f, st = np.stack([free[k] for k in idx]), np.stack([status[k] for k in idx])
+        b = np.stack([scans[k].bearings for k in idx])
+        open_end = open_ended(st)
+        if ev is not None and near is not None:
+            r, c = np.nonzero(~open_end)
+            pose = np.array([scans[k].pose for k in idx], dtype=np.float64)[r]
+            ang = pose[:, 2] + b[r, c]
+            end = pose[:, :2] + f[r, c, None] * np.column_stack((np.cos(ang), np.sin(ang)))
+            open_end[r, c] = ~near[ev.cell_index(end[:, 0], end[:, 1])]
+        levels = finger_levels(f, open_end, b, width)
+        for j, k in enumerate(idx):
+            out[k] = levels[j]
+    return out
+
+
+def tag_edge_kinds(crisp: BRepMap, ev: evidence.Evidence, radius: float, near: np.ndarray | None = None) -> BRepMap:
     """Obstacle where a return was seen along the edge, frontier where none was (issue: kinds).
 
     An edge is an obstacle edge if at least two of three points along it (quarter, middle,
@@ -249,7 +290,7 @@ def tag_edge_kinds(crisp: BRepMap, ev: evidence.Evidence, radius: float) -> BRep
     rings = crisp.rings
     v = np.vstack([r.vertices for r in rings])
     w = np.vstack([np.roll(r.vertices, -1, axis=0) for r in rings])
-    near = ev.hits_within(radius)
+    near = ev.hits_within(radius) if near is None else near
     votes = np.zeros(len(v), np.int64)
     for q in (0.25, 0.5, 0.75):
         p = v + q * (w - v)
