@@ -133,8 +133,8 @@
       for (const side of [1, -1]) { // the fan on the outer side of the turn
         if (!(side * o * psi < 0)) continue;
         const mex = -side * o * ey, mey = side * o * ex;
-        // as safe_sweep.fan_pieces: 1 up to 90°, then an even number of at most 90° each
-        const a = Math.abs(psi), P = Math.PI / 2;
+        // as safe_sweep.fan_pieces: 1 up to 60°, then an even number of at most 60° each
+        const a = Math.abs(psi), P = Math.PI / 3;
         const k = a <= P * (1 + 1e-9) ? 1 : 2 * Math.ceil(a / (2 * P) - 1e-9), half = psi / (2 * k);
         const corners = [[i, 0, 0], [i, mex, mey]];
         for (let q = 0; q < k; q++) corners.push([i, ...rot(mex, mey, (2 * q + 1) * half, 1 / Math.cos(half))]);
