@@ -214,7 +214,12 @@ def surface_segments(points: np.ndarray, joinable: np.ndarray, beam_step: float,
 
 
 class _Surfaces:
-    """Every scan's surface segments in its own frame, made once, placed at a pose on demand."""
+    """Every scan's surface segments in its own frame, made once, placed at a pose on demand.
+
+    A scan's placed segments (ends, directions, lengths, samples) are kept for the pose they were
+    placed at: the front end's local map changes by one key scan at a time and the loop closure
+    and the refinement ask for the same places again, so only a scan whose pose has changed (the
+    pose graph moved it) is placed again; an index is made of the pieces as they are."""
 
     def __init__(self, scans: Sequence[Scan], cfg: AlignConfig):
         self.points, self.segments = [], []
@@ -225,23 +230,34 @@ class _Surfaces:
             sa, sb = surface_segments(p, j, step, cfg.join)
             self.segments.append((sa, sb, *sample_segments(sa, sb, cfg.spacing)))
         self.spacing = cfg.spacing
+        self._placed: dict[int, tuple] = {}
+
+    def placed(self, k: int, pose: np.ndarray) -> tuple:
+        """Scan k's (a, b, direction, length, samples, samples_of) at ``pose``, world frame."""
+        key = (float(pose[0]), float(pose[1]), float(pose[2]))
+        hit = self._placed.get(k)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        sa, sb, samples, of = self.segments[k]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        R = np.array([[c, s], [-s, c]])
+        a, b = sa @ R + pose[:2], sb @ R + pose[:2]
+        d = b - a
+        length = np.hypot(d[:, 0], d[:, 1])
+        u = np.divide(d, length[:, None], out=np.zeros_like(d), where=length[:, None] > 0)
+        out = (a, b, u, length, samples @ R + pose[:2], of)
+        self._placed[k] = (key, out)
+        return out
 
     def index(self, which: Sequence[int], poses: np.ndarray) -> SegmentIndex:
         """The segments (and their samples: a rigid motion moves them too) of scans ``which`` at ``poses``."""
-        parts: list[list[np.ndarray]] = [[], [], [], []]
-        offset = 0
-        for k in which:
-            sa, sb, samples, of = self.segments[k]
-            c, s = math.cos(poses[k, 2]), math.sin(poses[k, 2])
-            R = np.array([[c, s], [-s, c]])
-            for out, v in zip(parts, (sa, sb, samples)):
-                out.append(v @ R + poses[k, :2])
-            parts[3].append(of + offset)
-            offset += len(sa)
-        if not parts[0]:
+        parts = [self.placed(k, poses[k]) for k in which]
+        if not parts:
             return SegmentIndex(np.zeros((0, 2)), np.zeros((0, 2)), self.spacing)
-        a, b, samples = (np.vstack(v) for v in parts[:3])
-        return SegmentIndex(a, b, self.spacing, samples=samples, samples_of=np.concatenate(parts[3]))
+        a, b, u, length, samples = (np.concatenate([p[i] for p in parts]) for i in range(5))
+        offsets = np.cumsum([0] + [len(p[3]) for p in parts[:-1]])
+        of = np.concatenate([p[5] + o for p, o in zip(parts, offsets)])
+        return SegmentIndex.placed(a, b, u, length, samples, of, self.spacing)
 
 
 def _subsample(p: np.ndarray, n: int) -> np.ndarray:

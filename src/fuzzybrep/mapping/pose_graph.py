@@ -60,9 +60,14 @@ def solve(poses: np.ndarray, i: np.ndarray, j: np.ndarray, z: np.ndarray, info: 
     if i.min() < 0 or j.min() < 0 or max(i.max(), j.max()) >= n:
         raise ValueError(f"an edge names a pose outside 0..{n - 1}")
     robust = np.zeros(m, bool) if robust is None else np.asarray(robust, bool).reshape(-1)
-    # whitening: Ω = Lᵀ L, ‖L e‖² = eᵀ Ω e
-    L = np.transpose(np.linalg.cholesky(info), (0, 2, 1))
-    rows = np.arange(3 * m).reshape(m, 3)
+    # every edge's four 3 × 3 blocks of the normal equations (i i, i j, j i, j j) and their places,
+    # pose 0 held (its rows and columns dropped, the others shifted by one pose)
+    bi = np.broadcast_to((3 * (i - 1))[:, None, None] + np.arange(3)[:, None], (m, 3, 3))
+    bj = np.broadcast_to((3 * (j - 1))[:, None, None] + np.arange(3)[:, None], (m, 3, 3))
+    rows = np.concatenate([r.ravel() for r in (bi, bi, bj, bj)])
+    cols = np.concatenate([np.swapaxes(c, 1, 2).ravel() for c in (bi, bj, bi, bj)])
+    keep = (rows >= 0) & (cols >= 0)
+    rows, cols = rows[keep], cols[keep]
     for it in range(iterations):
         e = residuals(x, i, j, z)
         pi, pj = x[i], x[j]
@@ -79,23 +84,19 @@ def solve(poses: np.ndarray, i: np.ndarray, j: np.ndarray, z: np.ndarray, info: 
         Jj[:, 0, 0], Jj[:, 0, 1] = c, s
         Jj[:, 1, 0], Jj[:, 1, 1] = -s, c
         Jj[:, 2, 2] = 1.0
-        w = np.ones(m)
+        W = info
         if robust.any() and it >= plain:
             s2 = np.einsum("ea,eab,eb->e", e, info, e)
-            w = np.where(robust, 1.0 / (1.0 + s2 / ROBUST_SCALE ** 2), 1.0)
-        sw = np.sqrt(w)[:, None, None]
-        Wi, Wj = sw * (L @ Ji), sw * (L @ Jj)
-        r = (sw[:, :, 0] * np.einsum("eab,eb->ea", L, e)).reshape(-1)
-        # sparse J: every edge's three rows touch the three columns of pose i and of pose j
-        rr = np.repeat(rows, 3, axis=1).reshape(m, 3, 3)
-        ci = (3 * i)[:, None, None] + np.arange(3)[None, None, :]
-        cj = (3 * j)[:, None, None] + np.arange(3)[None, None, :]
-        ci, cj = np.broadcast_to(ci, (m, 3, 3)), np.broadcast_to(cj, (m, 3, 3))
-        J = sp.csr_matrix((np.concatenate((Wi.ravel(), Wj.ravel())),
-                           (np.concatenate((rr.ravel(), rr.ravel())), np.concatenate((ci.ravel(), cj.ravel())))),
-                          shape=(3 * m, 3 * n))[:, 3:]  # pose 0 held: its columns dropped
-        H = (J.T @ J).tocsc()
-        g = J.T @ r
+            W = info * np.where(robust, 1.0 / (1.0 + s2 / ROBUST_SCALE ** 2), 1.0)[:, None, None]
+        # JᵀWJ and JᵀWe edge by edge, summed into place by the sparse matrix (duplicates add up)
+        WJi, WJj = W @ Ji, W @ Jj
+        Jit, Jjt = np.swapaxes(Ji, 1, 2), np.swapaxes(Jj, 1, 2)
+        blocks = np.concatenate([(Jit @ WJi).ravel(), (Jit @ WJj).ravel(), (Jjt @ WJi).ravel(), (Jjt @ WJj).ravel()])
+        H = sp.csc_matrix((blocks[keep], (rows, cols)), shape=(3 * (n - 1), 3 * (n - 1)))
+        We = np.einsum("eab,eb->ea", W, e)
+        gi, gj = np.einsum("eba,eb->ea", Ji, We), np.einsum("eba,eb->ea", Jj, We)
+        g = np.bincount(np.concatenate((bi[:, :, 0].ravel(), bj[:, :, 0].ravel())) + 3,
+                        np.concatenate((gi.ravel(), gj.ravel())), minlength=3 * n)[3:]
         # a pose no edge reaches has an empty block: a tiny damping keeps H invertible
         H = H + sp.identity(H.shape[0], format="csc") * 1e-9
         dx = -spsolve(H, g, permc_spec="MMD_AT_PLUS_A")  # symmetric: the fill-reducing order for AᵀA + A

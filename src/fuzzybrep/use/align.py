@@ -99,8 +99,29 @@ class SegmentIndex:
             samples, seg = sample_segments(a, b, spacing)
         else:
             samples, seg = np.asarray(samples, np.float64).reshape(-1, 2), np.asarray(samples_of, np.int64).reshape(-1)
+        self._finish(samples, seg)
+
+    @classmethod
+    def placed(cls, a: np.ndarray, b: np.ndarray, direction: np.ndarray, length: np.ndarray, samples: np.ndarray,
+               samples_of: np.ndarray, spacing: float) -> "SegmentIndex":
+        """An index of kind-0 segments whose directions, lengths and samples the caller has worked
+        out already (``mapping.align_scans`` moves each scan's segments rigidly once and joins the
+        pieces of a local map: the checks and the per-segment arithmetic of ``__init__`` would be
+        most of the index's cost, rebuilt at every scan)."""
+        self = cls.__new__(cls)
+        self.a, self.b, self.spacing = a, b, float(spacing)
+        self.kinds = np.zeros(len(a), np.int64)
+        self.matched = np.ones(len(a), bool)
+        self.length, self.direction = length, direction
+        self._finish(samples, samples_of)
+        return self
+
+    def _finish(self, samples: np.ndarray, seg: np.ndarray) -> None:
         self.samples = samples
         self.sample_segment = seg
+        self.all_matched = bool(self.matched.all())
+        # per segment (a_x, a_y, u_x, u_y, length) in one table: one gather a query instead of three
+        self._table = np.column_stack((self.a, self.direction, self.length))
         # an unbalanced tree builds in half the time and answers as fast for points spread like these
         self.tree = cKDTree(self.samples, balanced_tree=False, compact_nodes=False) if len(seg) else None
 
@@ -126,32 +147,42 @@ class SegmentIndex:
         dist = np.full(n, np.inf)
         foot = np.zeros((n, 2))
         normal = np.zeros((n, 2))
-        if self.tree is None or n == 0:
-            return seg, dist, foot, normal
+        idx, j, d, nx, ny, fx, fy = self.within(p, max_distance, feet=True)
+        seg[idx], dist[idx] = j, d
+        foot[idx, 0], foot[idx, 1], normal[idx, 0], normal[idx, 1] = fx, fy, nx, ny
+        return seg, dist, foot, normal
+
+    def within(self, p: np.ndarray, max_distance: float, feet: bool = False):
+        """``nearest`` for the points (n, 2) within ``max_distance`` only, as columns: (index of
+        each such point (k,), its segment (k,), distance (k,), normal x, y (k,) each[, foot x, y
+        with ``feet``]). What the scan matcher needs, without spreading it back over every point:
+        a few hundred points a call, so most of the cost is the number of array operations."""
+        none = np.zeros(0, np.int64), np.zeros(0, np.int64), *(np.zeros(0) for _ in range(5 if feet else 3))
+        if self.tree is None or len(p) == 0:
+            return none
         # a sample within max_distance + spacing/2 can name a segment within max_distance
         _, k = self.tree.query(p, distance_upper_bound=max_distance + self.spacing / 2)
         found = np.flatnonzero(k < len(self.samples))
         j = self.sample_segment[k[found]]
-        a, u, L = self.a[j], self.direction[j], self.length[j]
-        pf = p[found]
-        ap = pf - a
-        t = np.clip(ap[:, 0] * u[:, 0] + ap[:, 1] * u[:, 1], 0.0, L)
-        q = a + t[:, None] * u
-        e = pf - q
-        d = np.hypot(e[:, 0], e[:, 1])
-        # only what lies within reach is worked out further (the same values, element by element:
-        # this is most of the scan matcher's time, a few hundred points a call)
+        ax, ay, ux, uy, L = self._table[j].T
+        px, py = p[found].T
+        apx, apy = px - ax, py - ay
+        t = np.clip(apx * ux + apy * uy, 0.0, L)
+        qx, qy = ax + t * ux, ay + t * uy
+        ex, ey = px - qx, py - qy
+        d = np.hypot(ex, ey)
+        # only what lies within reach is worked out further
         ok = np.flatnonzero(d <= max_distance)
-        j, u, t, L, q, e, d = j[ok], u[ok], t[ok], L[ok], q[ok], e[ok], d[ok]
-        # interior foot: the normal, turned to the point's side; beyond an end: towards the point
-        nrm = np.empty_like(u)
-        nrm[:, 0], nrm[:, 1] = -u[:, 1], u[:, 0]
-        side = np.where(e[:, 0] * nrm[:, 0] + e[:, 1] * nrm[:, 1] < 0, -1.0, 1.0)
-        interior = (t > 0) & (t < L)
-        dirn = np.where((interior | (d == 0))[:, None], nrm * side[:, None], e / np.where(d > 0, d, 1.0)[:, None])
-        idx = found[ok]
-        seg[idx], dist[idx], foot[idx], normal[idx] = j, d, q, dirn
-        return seg, dist, foot, normal
+        if len(ok) < len(d):
+            j, ux, uy, t, L, qx, qy, ex, ey, d = (v[ok] for v in (j, ux, uy, t, L, qx, qy, ex, ey, d))
+        # interior foot: the normal (-u_y, u_x), turned to the point's side; beyond an end: towards the point
+        side = np.where(ex * -uy + ey * ux < 0, -1.0, 1.0)
+        along = ((t > 0) & (t < L)) | (d == 0)
+        dd = np.where(d > 0, d, 1.0)
+        nx = np.where(along, -uy * side, ex / dd)
+        ny = np.where(along, ux * side, ey / dd)
+        out = found[ok], j, d, nx, ny
+        return out + (qx, qy) if feet else out
 
 
 @dataclass(frozen=True)
@@ -246,13 +277,14 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         sl = slice(None, None, stride)
         ps, bs = p[sl], beam[sl]
         world = transform(ps + b * bs, x)
-        seg, d, foot, nrm = index.nearest(world, w)
-        use = (seg >= 0) & index.matched[np.maximum(seg, 0)]
-        weight = np.where(use, _KERNELS[KERNEL](d, w), 0.0)
-        use &= weight > 0
+        idx, j, d, nx, ny = index.within(world, w)
+        weight = _KERNELS[KERNEL](d, w)
+        use = weight > 0 if index.all_matched else (weight > 0) & index.matched[j]
         if use.sum() < min_matches and prior is None:
             break
-        J, wu, du = _jacobian(world[use], x, nrm[use], bs[use], npar), weight[use] * (inv_var * stride), d[use]
+        rows = idx[use]
+        J = _jacobian(world[rows], x, nx[use], ny[use], bs[rows], npar)
+        wu, du = weight[use] * (inv_var * stride), d[use]
         Jw = J * wu[:, None]
         H = J.T @ Jw
         g = Jw.T @ du
@@ -281,13 +313,13 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
     return _result(p, beam, index, x, b, width, width if support is None else support, prior, offset_prior, it)
 
 
-def _jacobian(world: np.ndarray, x: np.ndarray, nrm: np.ndarray, beam: np.ndarray, npar: int) -> np.ndarray:
-    """d(distance)/d(x, y, heading[, offset]) of matched endpoints, the direction ``nrm`` held."""
+def _jacobian(world: np.ndarray, x: np.ndarray, nx: np.ndarray, ny: np.ndarray, beam: np.ndarray, npar: int) -> np.ndarray:
+    """d(distance)/d(x, y, heading[, offset]) of matched endpoints, the direction (nx, ny) held."""
     arm = world - x[:2]
-    cols = [nrm[:, 0], nrm[:, 1], nrm[:, 1] * arm[:, 0] - nrm[:, 0] * arm[:, 1]]
+    cols = [nx, ny, ny * arm[:, 0] - nx * arm[:, 1]]
     if npar == 4:
         c, s = math.cos(x[2]), math.sin(x[2])
-        cols.append(nrm[:, 0] * (c * beam[:, 0] - s * beam[:, 1]) + nrm[:, 1] * (s * beam[:, 0] + c * beam[:, 1]))
+        cols.append(nx * (c * beam[:, 0] - s * beam[:, 1]) + ny * (s * beam[:, 0] + c * beam[:, 1]))
     return np.column_stack(cols)
 
 
@@ -314,7 +346,7 @@ def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray,
     inner = matched & (d < width)
     if inner.sum() >= 4:
         wt = 1 - d[inner] / width
-        J = _jacobian(world[inner], x, nrm[inner], beam[inner], npar)
+        J = _jacobian(world[inner], x, nrm[inner, 0], nrm[inner, 1], beam[inner], npar)
         sigma2 = max(float((wt * d[inner] ** 2).sum() / max(wt.sum() - npar, 1e-9)), 1e-12)
         H = J.T @ (J * wt[:, None]) / sigma2
     data = H[:3, :3].copy()
