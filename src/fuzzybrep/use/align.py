@@ -35,7 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..scans.scan import wrap
 
 
 #: the wide kernels of ``align`` fit at least this many endpoints (a subsample), for at most
@@ -43,7 +42,7 @@ from ..scans.scan import wrap
 COARSE_POINTS = 48
 KERNEL = "triangle"
 _KERNELS = {
-    "triangle": lambda d, w: np.clip(1.0 - d / w, 0.0, None),
+    "triangle": lambda d, w: np.maximum(1.0 - d / w, 0.0),
     "cauchy": lambda d, w: np.where(d < 2 * w, 1.0 / (1.0 + (2.0 * d / w) ** 2), 0.0),
     "gauss": lambda d, w: np.where(d < 2 * w, np.exp(-0.5 * (2.0 * d / w) ** 2), 0.0),
     "huber": lambda d, w: np.where(d < w, np.minimum(1.0, w / 3 / np.maximum(d, 1e-12)), 0.0),
@@ -157,9 +156,8 @@ class SegmentIndex:
         each such point (k,), its segment (k,), distance (k,), normal x, y (k,) each[, foot x, y
         with ``feet``]). What the scan matcher needs, without spreading it back over every point:
         a few hundred points a call, so most of the cost is the number of array operations."""
-        none = np.zeros(0, np.int64), np.zeros(0, np.int64), *(np.zeros(0) for _ in range(5 if feet else 3))
         if self.tree is None or len(p) == 0:
-            return none
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), *(np.zeros(0) for _ in range(5 if feet else 3))
         # a sample within max_distance + spacing/2 can name a segment within max_distance
         _, k = self.tree.query(p, distance_upper_bound=max_distance + self.spacing / 2)
         found = np.flatnonzero(k < len(self.samples))
@@ -167,7 +165,7 @@ class SegmentIndex:
         ax, ay, ux, uy, L = self._table[j].T
         px, py = p[found].T
         apx, apy = px - ax, py - ay
-        t = np.clip(apx * ux + apy * uy, 0.0, L)
+        t = np.minimum(np.maximum(apx * ux + apy * uy, 0.0), L)  # np.clip's own overhead is most of its cost here
         qx, qy = ax + t * ux, ay + t * uy
         ex, ey = px - qx, py - qy
         d = np.hypot(ex, ey)
@@ -227,6 +225,12 @@ class Alignment:
         return self.matches / judged if judged > 0 else 0.0
 
 
+def _wrap(angle: float) -> float:
+    """``scans.scan.wrap`` of one angle, in Python floats (the same value: % is Python's floored
+    modulo in both)."""
+    return (float(angle) + math.pi) % (2 * math.pi) - math.pi
+
+
 def transform(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """Points (n, 2) in the frame of ``pose`` (3,), in the world frame."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -276,11 +280,11 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         stride = min(1 << levels_left, max(1, len(p) // COARSE_POINTS))
         sl = slice(None, None, stride)
         ps, bs = p[sl], beam[sl]
-        world = transform(ps + b * bs, x)
+        world = transform(ps + b * bs if b else ps, x)
         idx, j, d, nx, ny = index.within(world, w)
         weight = _KERNELS[KERNEL](d, w)
         use = weight > 0 if index.all_matched else (weight > 0) & index.matched[j]
-        if use.sum() < min_matches and prior is None:
+        if np.count_nonzero(use) < min_matches and prior is None:
             break
         rows = idx[use]
         J = _jacobian(world[rows], x, nx[use], ny[use], bs[rows], npar)
@@ -290,7 +294,7 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         g = Jw.T @ du
         if prior is not None:
             e = x - prior_pose
-            e[2] = wrap(e[2])
+            e[2] = _wrap(e[2])
             H[:3, :3] += info
             g[:3] += info @ e
         if npar == 4:
@@ -301,7 +305,7 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         except np.linalg.LinAlgError:
             break
         x = x + step[:3]
-        x[2] = float(wrap(x[2]))
+        x[2] = _wrap(x[2])
         if npar == 4:
             b += float(step[3])
         small = math.hypot(step[0], step[1]) < tolerance and abs(step[2]) < tolerance
