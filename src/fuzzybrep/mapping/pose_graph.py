@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import splu
 
 from ..scans.scan import wrap
 
@@ -67,7 +67,21 @@ def solve(poses: np.ndarray, i: np.ndarray, j: np.ndarray, z: np.ndarray, info: 
     rows = np.concatenate([r.ravel() for r in (bi, bi, bj, bj)])
     cols = np.concatenate([np.swapaxes(c, 1, 2).ravel() for c in (bi, bj, bi, bj)])
     keep = (rows >= 0) & (cols >= 0)
-    rows, cols = rows[keep], cols[keep]
+    # and the tiny damping on the diagonal: a pose no edge reaches has an empty block
+    size = 3 * (n - 1)
+    rows, cols = np.concatenate((rows[keep], np.arange(size))), np.concatenate((cols[keep], np.arange(size)))
+    # the matrix's pattern is the same at every iteration: each entry's place in the CSC arrays
+    # (sorted by column, then row) is worked out once, and each iteration's values are summed
+    # into place by one bincount instead of a sparse matrix made and summed from triplets
+    order = np.lexsort((rows, cols))
+    rc = cols[order] * size + rows[order]
+    first = np.r_[True, rc[1:] != rc[:-1]]
+    slot = np.empty(len(rows), np.int64)
+    slot[order] = np.cumsum(first) - 1
+    indices = rows[order][first].astype(np.int32)
+    indptr = np.searchsorted(cols[order][first], np.arange(size + 1)).astype(np.int32)
+    nnz = len(indices)
+    damping = np.full(size, 1e-9)
     for it in range(iterations):
         e = residuals(x, i, j, z)
         pi, pj = x[i], x[j]
@@ -92,14 +106,14 @@ def solve(poses: np.ndarray, i: np.ndarray, j: np.ndarray, z: np.ndarray, info: 
         WJi, WJj = W @ Ji, W @ Jj
         Jit, Jjt = np.swapaxes(Ji, 1, 2), np.swapaxes(Jj, 1, 2)
         blocks = np.concatenate([(Jit @ WJi).ravel(), (Jit @ WJj).ravel(), (Jjt @ WJi).ravel(), (Jjt @ WJj).ravel()])
-        H = sp.csc_matrix((blocks[keep], (rows, cols)), shape=(3 * (n - 1), 3 * (n - 1)))
+        H = sp.csc_matrix((np.bincount(slot, np.concatenate((blocks[keep], damping)), minlength=nnz), indices, indptr),
+                          shape=(size, size))
         We = np.einsum("eab,eb->ea", W, e)
         gi, gj = np.einsum("eba,eb->ea", Ji, We), np.einsum("eba,eb->ea", Jj, We)
         g = np.bincount(np.concatenate((bi[:, :, 0].ravel(), bj[:, :, 0].ravel())) + 3,
                         np.concatenate((gi.ravel(), gj.ravel())), minlength=3 * n)[3:]
-        # a pose no edge reaches has an empty block: a tiny damping keeps H invertible
-        H = H + sp.identity(H.shape[0], format="csc") * 1e-9
-        dx = -spsolve(H, g, permc_spec="MMD_AT_PLUS_A")  # symmetric: the fill-reducing order for AᵀA + A
+        # symmetric positive definite: the fill-reducing order for AᵀA + A, the diagonal as pivots
+        dx = -splu(H, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}).solve(g)
         if not np.isfinite(dx).all():
             break
         x[1:] += dx.reshape(-1, 3)

@@ -225,6 +225,27 @@ class Alignment:
         return self.matches / judged if judged > 0 else 0.0
 
 
+def _solve(H: np.ndarray, g: np.ndarray) -> np.ndarray | None:
+    """The Gauss-Newton step −H⁻¹g, None when H is singular. 3 × 3 by the adjugate in Python
+    floats: np.linalg.solve's own overhead is several times the arithmetic, once an iteration."""
+    if len(g) != 3:
+        try:
+            return -np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            return None
+    (a, b, c), (d, e, f), (g_, h, i) = H.tolist()
+    A, B, C = e * i - f * h, f * g_ - d * i, d * h - e * g_
+    det = a * A + b * B + c * C
+    if det == 0 or not math.isfinite(det):
+        return None
+    r0, r1, r2 = g.tolist()
+    # H⁻¹ = adj(H) / det, adj(H) the transposed cofactors
+    x0 = A * r0 + (c * h - b * i) * r1 + (b * f - c * e) * r2
+    x1 = B * r0 + (a * i - c * g_) * r1 + (c * d - a * f) * r2
+    x2 = C * r0 + (b * g_ - a * h) * r1 + (a * e - b * d) * r2
+    return np.array((-x0 / det, -x1 / det, -x2 / det))
+
+
 def _wrap(angle: float) -> float:
     """``scans.scan.wrap`` of one angle, in Python floats (the same value: % is Python's floored
     modulo in both)."""
@@ -300,9 +321,8 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         if npar == 4:
             H[3, 3] += offset_prior[1]
             g[3] += offset_prior[1] * (b - offset_prior[0])
-        try:
-            step = -np.linalg.solve(H, g)
-        except np.linalg.LinAlgError:
+        step = _solve(H, g)
+        if step is None:
             break
         x = x + step[:3]
         x[2] = _wrap(x[2])
