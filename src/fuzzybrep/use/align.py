@@ -151,6 +151,29 @@ class SegmentIndex:
         foot[idx, 0], foot[idx, 1], normal[idx, 0], normal[idx, 1] = fx, fy, nx, ny
         return seg, dist, foot, normal
 
+    def fit_rows(self, p: np.ndarray, reach: float):
+        """What a Gauss-Newton iteration of ``align`` needs of the points (n, 2) whose nearest
+        sample is within ``reach`` + spacing/2: (their indices (k,), nearest segment (k,), distance
+        (k,), normal x, y (k,)), some beyond ``reach`` (the caller's kernel gives those no weight:
+        cheaper than leaving them out). The normal is the direction from the foot to the point,
+        which for a foot inside the segment is its normal turned to the point's side (the same
+        thing as ``nearest`` works out separately, up to rounding), the segment's normal for a
+        point on it. As few array operations as can be: hundreds of points a call, tens of
+        thousands of calls a log."""
+        if self.tree is None or len(p) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0)
+        _, k = self.tree.query(p, distance_upper_bound=reach + self.spacing / 2)
+        found = np.flatnonzero(k < len(self.samples))
+        j = self.sample_segment[k[found]]
+        ax, ay, ux, uy, L = self._table[j].T
+        px, py = p[found].T
+        t = np.minimum(np.maximum((px - ax) * ux + (py - ay) * uy, 0.0), L)
+        ex, ey = px - (ax + t * ux), py - (ay + t * uy)
+        d = np.hypot(ex, ey)
+        off = d > 1e-12
+        dd = np.where(off, d, 1.0)
+        return found, j, d, np.where(off, ex / dd, -uy), np.where(off, ey / dd, ux)
+
     def within(self, p: np.ndarray, max_distance: float, feet: bool = False):
         """``nearest`` for the points (n, 2) within ``max_distance`` only, as columns: (index of
         each such point (k,), its segment (k,), distance (k,), normal x, y (k,) each[, foot x, y
@@ -302,14 +325,17 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         sl = slice(None, None, stride)
         ps, bs = p[sl], beam[sl]
         world = transform(ps + b * bs if b else ps, x)
-        idx, j, d, nx, ny = index.within(world, w)
+        found, j, d, nx, ny = index.fit_rows(world, w)
         weight = _KERNELS[KERNEL](d, w)
-        use = weight > 0 if index.all_matched else (weight > 0) & index.matched[j]
-        if np.count_nonzero(use) < min_matches and prior is None:
+        if KERNEL != "triangle":  # the triangle is 0 beyond w already; the others reach farther
+            weight = np.where(d <= w, weight, 0.0)
+        if not index.all_matched:
+            weight = np.where(index.matched[j], weight, 0.0)
+        if prior is None and np.count_nonzero(weight) < min_matches:
             break
-        rows = idx[use]
-        J = _jacobian(world[rows], x, nx[use], ny[use], bs[rows], npar)
-        wu, du = weight[use] * (inv_var * stride), d[use]
+        # rows of zero weight (found by the tree, beyond w) add nothing to H and g
+        J = _jacobian(world[found], x, nx, ny, bs[found], npar)
+        wu, du = weight * (inv_var * stride), d
         Jw = J * wu[:, None]
         H = J.T @ Jw
         g = Jw.T @ du
@@ -350,28 +376,36 @@ def _jacobian(world: np.ndarray, x: np.ndarray, nx: np.ndarray, ny: np.ndarray, 
 def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray, b: float, width: float,
             support: float, prior, offset_prior, iterations: int) -> Alignment:
     """Matches, membership and covariance at the final pose."""
-    world = transform(p + b * beam, x)
-    seg, d, _, nrm = index.nearest(world, max(width, support))
-    found = seg >= 0
-    matched = found & index.matched[np.maximum(seg, 0)]
-    unknown = found & ~matched
+    world = transform(p + b * beam if b else p, x)
+    f, j, d, nx, ny = index.fit_rows(world, max(width, support))
+    near = d <= max(width, support)  # of the rows: the points ``nearest`` finds a segment for
+    wall = index.matched[j] if not index.all_matched else np.ones(len(j), bool)
+    matched = near & wall
+    unknown = int(np.count_nonzero(near & ~wall))
     # an endpoint nothing is near is unknown too when the nearest sample at any distance is
     # a segment not matched (beyond a frontier): one more query, for the result only
-    far = ~found
-    if far.any() and (~index.matched).any() and index.tree is not None:
-        _, k = index.tree.query(world[far])
-        unknown[np.flatnonzero(far)[~index.matched[index.sample_segment[k]]]] = True
-    judged = len(p) - int(unknown.sum())
-    mu = float(np.clip(1 - d[matched] / support, 0, None).sum() / judged) if judged > 0 else 0.0
-    n = int((matched & (d <= support)).sum())
-    rms = float(np.sqrt(np.mean(d[matched & (d <= support)] ** 2))) if n else math.inf
+    if not index.all_matched and index.tree is not None:
+        far = np.ones(len(p), bool)
+        far[f[near]] = False
+        if far.any():
+            _, k = index.tree.query(world[far])
+            unknown += int(np.count_nonzero(~index.matched[index.sample_segment[k]]))
+    judged = len(p) - unknown
+    dm = d[matched]
+    mu = float(np.maximum(1 - dm / support, 0.0).sum() / judged) if judged > 0 else 0.0
+    ds = dm[dm <= support]
+    n = len(ds)
+    rms = float(np.sqrt(np.mean(ds ** 2))) if n else math.inf
     npar = 4 if offset_prior is not None else 3
     H = np.zeros((npar, npar))
     inner = matched & (d < width)
-    if inner.sum() >= 4:
-        wt = 1 - d[inner] / width
-        J = _jacobian(world[inner], x, nrm[inner, 0], nrm[inner, 1], beam[inner], npar)
-        sigma2 = max(float((wt * d[inner] ** 2).sum() / max(wt.sum() - npar, 1e-9)), 1e-12)
+    n_inner = int(np.count_nonzero(inner))
+    if n_inner >= 4:
+        di = d[inner]
+        wt = 1 - di / width
+        rows = f[inner]
+        J = _jacobian(world[rows], x, nx[inner], ny[inner], beam[rows], npar)
+        sigma2 = max(float((wt * di ** 2).sum() / max(wt.sum() - npar, 1e-9)), 1e-12)
         H = J.T @ (J * wt[:, None]) / sigma2
     data = H[:3, :3].copy()
     if prior is not None:
@@ -379,11 +413,11 @@ def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray,
     if npar == 4:
         H[3, 3] += offset_prior[1]
     cov = np.full((npar, npar), np.inf)
-    if inner.sum() >= 4 or prior is not None:
+    if n_inner >= 4 or prior is not None:
         try:
             cov = np.linalg.inv(H)
         except np.linalg.LinAlgError:
             pass
     return Alignment(x, cov[:3, :3].copy(), b, float(cov[3, 3]) if npar == 4 else math.inf, data, n,
-                     int(unknown.sum()), len(p), rms, mu, iterations)
+                     unknown, len(p), rms, mu, iterations)
 
