@@ -115,6 +115,9 @@ class AlignConfig:
     loop_sigma: float = 0.05  #: and its position known this well across the corridor at least (m)
     loop_heading_sigma: float = math.radians(1.0)  #: and its heading this well
     loop_reoptimise: float = 0.20
+    #: Gauss-Newton iterations of that solve at most: it moves the local map near the loop's
+    #: correction, the solves at the end converge (most of the pose graph's cost on intel)
+    loop_solve_iterations: int = 5
     #: a loop match must be unique (``_rival``): along the direction it constrains least, profiled
     #: every loop_probe metres, no other pose farther than loop_unique may explain nearly as
     #: much of the scan (loop_rival of its mean membership): a corridor whose doors repeat has one
@@ -231,6 +234,7 @@ class _Surfaces:
             self.segments.append((sa, sb, *sample_segments(sa, sb, cfg.spacing)))
         self.spacing = cfg.spacing
         self._placed: dict[int, tuple] = {}
+        self._kept: dict[str, tuple] = {}
 
     def placed(self, k: int, pose: np.ndarray) -> tuple:
         """Scan k's (a, b, direction, length, samples, samples_of) at ``pose``, world frame."""
@@ -249,8 +253,18 @@ class _Surfaces:
         self._placed[k] = (key, out)
         return out
 
-    def index(self, which: Sequence[int], poses: np.ndarray) -> SegmentIndex:
-        """The segments (and their samples: a rigid motion moves them too) of scans ``which`` at ``poses``."""
+    def index(self, which: Sequence[int], poses: np.ndarray, keep: str | None = None) -> SegmentIndex:
+        """The segments (and their samples: a rigid motion moves them too) of scans ``which`` at
+        ``poses``. ``keep``: the index is kept under that name and given again while the same
+        scans are asked for at the same poses (a KD-tree's making is most of an index's cost)."""
+        if keep is not None:
+            sig = (tuple(which), poses[list(which)].tobytes())
+            kept = self._kept.get(keep)
+            if kept is not None and kept[0] == sig:
+                return kept[1]
+            index = self.index(which, poses)
+            self._kept[keep] = (sig, index)
+            return index
         parts = [self.placed(k, poses[k]) for k in which]
         if not parts:
             return SegmentIndex(np.zeros((0, 2)), np.zeros((0, 2)), self.spacing)
@@ -375,7 +389,8 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
                 last_loop = travel[k]
                 if math.hypot(*(pose_k[:2] - poses[k, :2])) > cfg.loop_reoptimise:
                     poses[: k + 1] = pose_graph.solve(poses[: k + 1], np.array(ei), np.array(ej), np.array(ez),
-                                                      np.array(einfo), np.array(robust))
+                                                      np.array(einfo), np.array(robust),
+                                                      iterations=cfg.loop_solve_iterations)
                     optimisations += 1
                     index_keys = None  # the local map follows the corrected poses
         if progress and (k % 50 == 0 or k == n - 1):
@@ -421,9 +436,9 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
         pts = _subsample(surf.points[k], cfg.max_points)
         if len(pts) < 20:
             continue
-        near = keys_a[max(0, ci - cfg.loop_window): ci + cfg.loop_window + 1]
+        near = keys_a[slice(*_around(ci, cfg.loop_window))]
         near = near[np.abs(travel[near] - travel[k]) >= cfg.loop_travel]
-        index = surf.index(near.tolist(), poses)
+        index = surf.index(near.tolist(), poses, keep="refine")
         if not len(index):
             continue
         last = travel[k]
@@ -442,6 +457,14 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
         robust.append(True)
         added += 1
     return added
+
+
+def _around(c: int, window: int) -> tuple[int, int]:
+    """The slice of key scans around key c in a loop's or a refinement's local map: at least
+    ``window`` either side, in blocks of ``window`` that neighbouring candidates share (the same
+    key scans at the same poses: the same index, made once)."""
+    first = (c // window) * window
+    return max(0, first - window), first + 2 * window + 1
 
 
 def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces,
@@ -465,8 +488,7 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
     c = int(np.argmin(np.where(inside, d, np.inf)))
     j = int(old[c])
     radius = min(cfg.loop_radius + cfg.loop_slide * min(travel[k] - travel[j], since_loop), cfg.loop_max_radius)
-    lo, hi = max(0, c - cfg.loop_window), c + cfg.loop_window + 1
-    index = surf.index(old[lo:hi].tolist(), poses)
+    index = surf.index(old[slice(*_around(c, cfg.loop_window))].tolist(), poses, keep="loop")
     if not len(index):
         return None
     res = align(pts, index, poses[k], width=cfg.width, start_width=max(cfg.loop_start_width, d.min() / 2),
