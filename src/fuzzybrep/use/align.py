@@ -48,6 +48,8 @@ _KERNELS = {
     "huber": lambda d, w: np.where(d < w, np.minimum(1.0, w / 3 / np.maximum(d, 1e-12)), 0.0),
 }
 COARSE_ITERATIONS = 3
+#: where ``SegmentIndex.fit_rows``'s "nothing near" segment lies: farther than any reach
+_FAR = 1e12
 
 
 def sample_segments(a: np.ndarray, b: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -119,8 +121,12 @@ class SegmentIndex:
         self.samples = samples
         self.sample_segment = seg
         self.all_matched = bool(self.matched.all())
-        # per segment (a_x, a_y, u_x, u_y, length) in one table: one gather a query instead of three
-        self._table = np.column_stack((self.a, self.direction, self.length))
+        # per segment (a_x, a_y, u_x, u_y, length) in one table: one gather a query instead of three;
+        # and one more row, a point of a segment farther than any reach, that ``fit_rows`` names
+        # for a point the tree found nothing for (the tree's "none" is the sample count)
+        self._table = np.vstack((np.column_stack((self.a, self.direction, self.length)), (_FAR, _FAR, 0.0, 0.0, 0.0)))
+        self._segment_of = np.append(seg, len(self.a))
+        self._wall = np.append(self.matched, False)
         # an unbalanced tree builds in half the time and answers as fast for points spread like these
         self.tree = cKDTree(self.samples, balanced_tree=False, compact_nodes=False) if len(seg) else None
 
@@ -152,27 +158,27 @@ class SegmentIndex:
         return seg, dist, foot, normal
 
     def fit_rows(self, p: np.ndarray, reach: float):
-        """What a Gauss-Newton iteration of ``align`` needs of the points (n, 2) whose nearest
-        sample is within ``reach`` + spacing/2: (their indices (k,), nearest segment (k,), distance
-        (k,), normal x, y (k,)), some beyond ``reach`` (the caller's kernel gives those no weight:
-        cheaper than leaving them out). The normal is the direction from the foot to the point,
-        which for a foot inside the segment is its normal turned to the point's side (the same
-        thing as ``nearest`` works out separately, up to rounding), the segment's normal for a
-        point on it. As few array operations as can be: hundreds of points a call, tens of
-        thousands of calls a log."""
+        """What a Gauss-Newton iteration of ``align`` needs of every point (n, 2): (the segment of
+        its nearest sample within ``reach`` + spacing/2, ``len(self)`` for none (n,); the distance
+        to it (n,), beyond any reach for none; normal x, y (n,)). Some distances are beyond
+        ``reach`` (the caller's kernel gives those no weight: cheaper than leaving them out). The
+        normal is the direction from the foot to the point, which for a foot inside the segment
+        is its normal turned to the point's side (the same thing as ``nearest`` works out
+        separately, up to rounding), the segment's normal for a point on it. As few array
+        operations as can be: a hundred points a call, tens of thousands of calls a log."""
         if self.tree is None or len(p) == 0:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0)
+            n = len(p)
+            return np.full(n, len(self.a)), np.full(n, np.inf), np.zeros(n), np.zeros(n)
         _, k = self.tree.query(p, distance_upper_bound=reach + self.spacing / 2)
-        found = np.flatnonzero(k < len(self.samples))
-        j = self.sample_segment[k[found]]
+        j = self._segment_of[k]
         ax, ay, ux, uy, L = self._table[j].T
-        px, py = p[found].T
+        px, py = p.T
         t = np.minimum(np.maximum((px - ax) * ux + (py - ay) * uy, 0.0), L)
         ex, ey = px - (ax + t * ux), py - (ay + t * uy)
         d = np.hypot(ex, ey)
         off = d > 1e-12
         dd = np.where(off, d, 1.0)
-        return found, j, d, np.where(off, ex / dd, -uy), np.where(off, ey / dd, ux)
+        return j, d, np.where(off, ex / dd, -uy), np.where(off, ey / dd, ux)
 
     def within(self, p: np.ndarray, max_distance: float, feet: bool = False):
         """``nearest`` for the points (n, 2) within ``max_distance`` only, as columns: (index of
@@ -339,16 +345,16 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         sl = slice(None, None, stride)
         ps, bs = p[sl], beam[sl]
         world = transform(ps + b * bs if b else ps, x)
-        found, j, d, nx, ny = index.fit_rows(world, w)
+        j, d, nx, ny = index.fit_rows(world, w)
         weight = _KERNELS[KERNEL](d, w)
         if KERNEL != "triangle":  # the triangle is 0 beyond w already; the others reach farther
             weight = np.where(d <= w, weight, 0.0)
         if not index.all_matched:
-            weight = np.where(index.matched[j], weight, 0.0)
+            weight = np.where(index._wall[j], weight, 0.0)
         if prior is None and np.count_nonzero(weight) < min_matches:
             break
-        # rows of zero weight (found by the tree, beyond w) add nothing to H and g
-        J = _jacobian(world[found], x, nx, ny, bs[found], npar)
+        # rows of zero weight (beyond w, or nothing near) add nothing to H and g
+        J = _jacobian(world, x, nx, ny, bs, npar)
         wu, du = weight * (inv_var * stride), d
         Jw = J * wu[:, None]
         H = J.T @ Jw
@@ -391,16 +397,15 @@ def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray,
             support: float, prior, offset_prior, iterations: int) -> Alignment:
     """Matches, membership and covariance at the final pose."""
     world = transform(p + b * beam if b else p, x)
-    f, j, d, nx, ny = index.fit_rows(world, max(width, support))
-    near = d <= max(width, support)  # of the rows: the points ``nearest`` finds a segment for
-    wall = index.matched[j] if not index.all_matched else np.ones(len(j), bool)
+    j, d, nx, ny = index.fit_rows(world, max(width, support))
+    near = d <= max(width, support)  # the points ``nearest`` finds a segment for
+    wall = index._wall[j]
     matched = near & wall
     unknown = int(np.count_nonzero(near & ~wall))
     # an endpoint nothing is near is unknown too when the nearest sample at any distance is
     # a segment not matched (beyond a frontier): one more query, for the result only
     if not index.all_matched and index.tree is not None:
-        far = np.ones(len(p), bool)
-        far[f[near]] = False
+        far = ~near
         if far.any():
             _, k = index.tree.query(world[far])
             unknown += int(np.count_nonzero(~index.matched[index.sample_segment[k]]))
@@ -417,8 +422,7 @@ def _result(p: np.ndarray, beam: np.ndarray, index: SegmentIndex, x: np.ndarray,
     if n_inner >= 4:
         di = d[inner]
         wt = 1 - di / width
-        rows = f[inner]
-        J = _jacobian(world[rows], x, nx[inner], ny[inner], beam[rows], npar)
+        J = _jacobian(world[inner], x, nx[inner], ny[inner], beam[inner], npar)
         sigma2 = max(float((wt * di ** 2).sum() / max(wt.sum() - npar, 1e-9)), 1e-12)
         H = J.T @ (J * wt[:, None]) / sigma2
     data = H[:3, :3].copy()
