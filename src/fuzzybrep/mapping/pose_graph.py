@@ -102,7 +102,7 @@ def solve(poses: np.ndarray, i: np.ndarray, j: np.ndarray, z: np.ndarray, info: 
         if robust.any() and it >= plain:
             s2 = np.einsum("ea,eab,eb->e", e, info, e)
             W = info * np.where(robust, 1.0 / (1.0 + s2 / ROBUST_SCALE ** 2), 1.0)[:, None, None]
-        # JᵀWJ and JᵀWe edge by edge, summed into place by the sparse matrix (duplicates add up)
+        # JᵀWJ and JᵀWe edge by edge, summed into their places
         WJi, WJj = W @ Ji, W @ Jj
         Jit, Jjt = np.swapaxes(Ji, 1, 2), np.swapaxes(Jj, 1, 2)
         blocks = np.concatenate([(Jit @ WJi).ravel(), (Jit @ WJj).ravel(), (Jjt @ WJi).ravel(), (Jjt @ WJj).ravel()])

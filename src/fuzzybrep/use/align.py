@@ -36,7 +36,6 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 
-
 #: the wide kernels of ``align`` fit at least this many endpoints (a subsample), for at most
 #: this many iterations each
 COARSE_POINTS = 48
@@ -181,10 +180,9 @@ class SegmentIndex:
         return j, d, np.where(off, ex / dd, -uy), np.where(off, ey / dd, ux)
 
     def within(self, p: np.ndarray, max_distance: float, feet: bool = False):
-        """``nearest`` for the points (n, 2) within ``max_distance`` only, as columns: (index of
-        each such point (k,), its segment (k,), distance (k,), normal x, y (k,) each[, foot x, y
-        with ``feet``]). What the scan matcher needs, without spreading it back over every point:
-        a few hundred points a call, so most of the cost is the number of array operations."""
+        """``nearest``'s work for the points (n, 2) within ``max_distance`` only, as columns: (index
+        of each such point (k,), its segment (k,), distance (k,), normal x, y (k,) each[, foot x, y
+        with ``feet``])."""
         if self.tree is None or len(p) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), *(np.zeros(0) for _ in range(5 if feet else 3))
         # a sample within max_distance + spacing/2 can name a segment within max_distance
