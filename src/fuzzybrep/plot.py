@@ -119,8 +119,17 @@ def save_map_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray |
                       Line2D([], [], color=FRONTIER_EDGE, label="frontier edge")]
     if poses is not None and len(poses):
         handles.append(Line2D([], [], color="#2a9d8f", label="robot path"))
-    ax.legend(handles=handles, loc="best", fontsize=8)
+    _legend(ax, handles)
     _save(fig, path, dpi)
+
+
+def _legend(ax, handles) -> None:
+    """The legend under the map, outside the axes: a map fills its axes, and inside them the
+    legend hid part of it wherever it went (freiburg-079's corridors, an ACES spike)."""
+    # below the tick labels and the axis label: some 40 points under the axes, whatever its height
+    below = 40 / max(ax.get_position().height * ax.figure.get_figheight() * 72, 1.0)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -below), ncol=min(3, len(handles)),
+              fontsize=8, frameon=False)
 
 
 def _format(path: str | os.PathLike) -> str:
@@ -155,7 +164,7 @@ def _save(fig, path, dpi) -> None:
     try:
         fig.tight_layout()
         buf = io.BytesIO()
-        fig.savefig(buf, format=_format(path), dpi=dpi)
+        fig.savefig(buf, format=_format(path), dpi=dpi, bbox_inches="tight")  # the legend lies below the axes
         write_atomic(path, buf.getvalue())
     finally:
         plt.close(fig)
@@ -185,7 +194,7 @@ def save_plan_figure(path: str | os.PathLike, crisp: BRepMap, safe, plans, title
         ax.plot(*p.path[0], "o", color=c, ms=5)
         ax.plot(*p.path[-1], "*", color=c, ms=9)
         handles.append(Line2D([], [], color=c, lw=1.6, label=f"{p.mode} path, {p.length:.3g} {p.unit}"))
-    ax.legend(handles=handles, loc="best", fontsize=8)
+    _legend(ax, handles)
     _save(fig, path, dpi)
 
 
@@ -213,5 +222,5 @@ def save_track_figure(path: str | os.PathLike, crisp: BRepMap, poses: np.ndarray
         handles.append(Line2D([], [], color="#adb5bd", marker="o", ls="", label="not aligned to the map"))
     ax.plot(*poses[0, :2], "o", color="#2a9d8f", ms=6, mfc="none")
     fig.colorbar(sc, ax=ax, shrink=0.6, label="confidence (mean μ of the endpoints)")
-    ax.legend(handles=handles, loc="best", fontsize=8)
+    _legend(ax, handles)
     _save(fig, path, dpi)
