@@ -172,7 +172,9 @@ class SafeLines:
         mitre = self.upto[side] >= d  # per point: its vertex may take the apex at this distance
         keep = ~mitre | mid
         if drop is not None and drop.any():
-            keep &= ~np.r_[drop, np.zeros(int(self.ring[side].max(initial=-1)) + 1 - len(drop), bool)][self.ring[side]]
+            ring = self.ring[side]
+            mapped = np.flatnonzero(ring < len(drop))  # the spike discs (rings beyond the map's) stay
+            keep[mapped] &= ~drop[ring[mapped]]
         keep = np.flatnonzero(keep)
         u = self.unit[side][keep]
         apex = mitre[keep]  # of the points kept, only the detours' middles take the apex

@@ -270,7 +270,7 @@ def trim_fingers(scans, free: list, status: list, width: float, ev: "evidence.Ev
         b = np.stack([scans[k].bearings for k in idx])
         open_end = open_ended(st)
         if ev is not None and near is not None:
-            r, c = np.nonzero(~open_end)
+            r, c = np.nonzero(st == CLIPPED)  # a beam's own return is a hit at its end: never open
             pose = np.array([scans[k].pose for k in idx], dtype=np.float64)[r]
             ang = pose[:, 2] + b[r, c]
             end = pose[:, :2] + f[r, c, None] * np.column_stack((np.cos(ang), np.sin(ang)))
