@@ -211,3 +211,30 @@ def test_free_space_iou_counts_cells_by_their_centres():
     assert E.free_space_iou(shapely.box(0, 0, 1.2, 4), g) == 0.5
     assert E.free_space_iou(shapely.box(0, 0, 2, 4), g) == 1.0
     assert np.isnan(E.free_space_iou(shapely.Polygon(), OccupancyGrid(np.zeros((2, 2)), (0.0, 0.0), 1.0)))
+
+
+def test_endpoints_beyond_the_map_that_a_kept_scan_saw_are_told_from_those_none_did():
+    from fuzzybrep.scans.filters import BeamConfig
+
+    # two rooms joined by a 0.8 m door; the robot stays in the first, facing the door, and every
+    # scan sees the second room's far wall through it (within 5 m)
+    a, door, b = shapely.box(0, 0, 4, 4), shapely.box(4, 1.6, 4.3, 2.4), shapely.box(4.3, 0, 6, 4)
+    rooms = shapely.union_all([a, door, b])
+    poses = [(1.2 + 0.1 * k, 2.0 + 0.05 * (k % 3), 0.02 * k) for k in range(10)]
+    scans = [scan_of(rooms, p, n=361, t=float(k)) for k, p in enumerate(poses)]
+    # the held-out endpoints on the second room's far wall
+    far = shapely.intersects_xy(shapely.buffer(shapely.LineString([(6, 0), (6, 4)]), 0.05), *E.endpoints(scans[1::2]).T)
+    e = E.evaluate_log(scans, 2, BuildConfig())
+    # the spike filter cuts the kept scans' fans back to the doorway (no needle through a door):
+    # the held-out endpoints on the far wall lie beyond the map, and the kept scans saw it
+    assert far.mean() > 0.05 and e.exact.outside[far].all()
+    assert e.beyond_seen == pytest.approx(e.exact.beyond) and e.exact.beyond >= far.mean()
+    # letting every opening through maps the fans: those endpoints are explained
+    cfg = BuildConfig(beams=BeamConfig(min_gap=0.0))
+    e_open = E.evaluate_log(scans, 2, cfg)
+    assert not e_open.exact.outside[far].any() and e_open.exact.explained > e.exact.explained
+    # the door shut while the kept scans were taken: what the held-out scans see through it no
+    # kept scan saw, so it is beyond and unseen
+    shut = [scan_of(rooms if k % 2 else a, p, n=361, t=float(k)) for k, p in enumerate(poses)]
+    e = E.evaluate_log(shut, 2, BuildConfig())
+    assert e.exact.outside[far].all() and e.beyond_seen < 0.2 * e.exact.beyond

@@ -65,6 +65,8 @@ def run(args) -> int:
           f"scans passed more than TME beyond them both before and after (people, doors)")
     print(f"  {pct(e.violations_rest)} of all endpoints are violations neither unseen nor come and gone: a kept scan "
           f"saw a return within TME (a better map could have avoided them, unless kept scans saw it go)")
+    print(f"  {pct(e.beyond_seen)} of all endpoints lie beyond the exact band although a kept scan saw a return "
+          f"within TME of them: what a map of the kept scans could have explained")
     iou = "undefined (no free space in either at the cell centres)" if math.isnan(e.free_iou) else f"{e.free_iou:.3f}"
     print(f"  free-space IoU with the {e.resolution:g} m grid: {iou}")
     print(f"  bytes: fuzzy map {e.map_bytes_compact} compact ({e.map_bytes_thesis} as Table 5.3 counts) vs grid "

@@ -16,7 +16,9 @@ passed by between two kept scans). A third says which violations the map is righ
 that came and went, where beams of kept scans passed more than TME beyond the endpoint both
 before and after the held-out scan saw something there. The rest (``violations_rest``) is what
 a better map of the kept scans could have avoided, or something kept scans saw stand and then
-saw through (the map keeps the newest evidence).
+saw through (the map keeps the newest evidence). For the endpoints beyond the map, ``beyond_seen``
+says which a kept scan saw a return within TME of: what a map of the kept scans could have
+explained (the rest no map of them could, short of inventing a surface).
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ class EndpointScore:
     beyond: float
     #: per point: inside the safe inner region (a violation); None when there are no points
     violated: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: per point: outside the outer polygon (beyond the map); None when there are no points
+    outside: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def as_dict(self) -> dict:
         return {"endpoints": self.endpoints, "explained": self.explained, "violations": self.violations, "beyond": self.beyond}
@@ -210,7 +214,7 @@ def score(points: np.ndarray, safe, outer) -> EndpointScore:
     inside_outer = shapely.intersects_xy(outer, points[:, 0], points[:, 1])
     v = float(inside_safe.mean())
     b = float((~inside_outer).mean())
-    return EndpointScore(n, 1.0 - v - b, v, b, inside_safe)
+    return EndpointScore(n, 1.0 - v - b, v, b, inside_safe, ~inside_outer)
 
 
 def band_by_buffer(free, tme_in: float, tme_out: float | None = None):
@@ -271,6 +275,10 @@ class Evaluation:
     #: share of held-out endpoints: unseen violations (``violations_unseen``) that a kept beam
     #: passed more than TME beyond: free for every map true to the kept scans, whatever its method
     violations_seen_through: float = math.nan
+    #: share of held-out endpoints: beyond the exact band's outer polygon although a kept scan saw
+    #: a return within TME of them: what a map of the kept scans could have explained (a room seen
+    #: through a door the spike filter cut back, a surface behind the first one others saw)
+    beyond_seen: float = math.nan
 
     def as_dict(self) -> dict:
         """The JSON form. An undefined IoU (NaN: no free space in either at the cell centres) is
@@ -345,7 +353,12 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     tell()
     on_small = float((viol & small_objects(held, max_range, polygon=config.polygon)).mean())
     tell()
-    unseen = ~seen_near(pts[viol], kept, tme)  # asked of the violations only
+    # asked of the violations and the endpoints beyond the map only, in one look-up
+    outside = scores["exact"].outside
+    seen = np.zeros(len(pts), bool)
+    seen[viol | outside] = seen_near(pts[viol | outside], kept, tme)
+    unseen = ~seen[viol]
+    beyond_seen = seen & outside
     tell()
     kept_free = spike_free(kept, config)  # came and went and seen through ask the same beams
     went = came_and_went(pts[viol], endpoint_times(held, max_range)[viol], kept, config, tme, kept_free)
@@ -361,4 +374,4 @@ def evaluate_log(scans: Sequence[Scan], holdout: int = 2, config=None, tme: floa
     return Evaluation(holdout, len(kept), len(held), scores["exact"], on_small, share(unseen), share(went),
                       share(~unseen & ~went), scores["safe"], scores["thesis"], iou, compact_bytes(fz), thesis,
                       grid.nbytes(4), grid.cells, resolution, time.perf_counter() - t0,
-                      [order_note] if order_note else [], poses_free, share(through))
+                      [order_note] if order_note else [], poses_free, share(through), share(beyond_seen))
