@@ -21,7 +21,9 @@ Back end (loop closure, ``mapping.pose_graph``): every ``loop_every`` metres of 
 also aligned to the key scans around the nearest place passed more than ``loop_travel`` metres
 ago (within what the drift since can explain of the scan's current estimate, ``_try_loop``); a match that explains most of the
 scan (``loop_inliers``) and fixes its heading and at least one direction of its position adds a loop edge to the pose graph
-whose other edges are the consecutive scans' relative poses. The graph is solved (SciPy sparse
+whose other edges are the consecutive scans' relative poses; at the end every key scan is
+matched again to the places it passed twice (``_refine``) and to its neighbours in time on both
+sides (``_refine_local``). The graph is solved (SciPy sparse
 least squares, a robust kernel on the loop edges) whenever a new loop edge disagrees with the
 trajectory by more than ``loop_reoptimise`` metres, and once at the end; the local map then
 follows the corrected poses.
@@ -129,6 +131,9 @@ class AlignConfig:
     refine_radius: float = 3.0  #: a key scan this near, passed at least loop_travel ago (or later), is matched
     refine_move: float = 0.3  #: a refinement match moving a scan farther than this is not believed
     refine_every: float = 1.0  #: a key scan is matched again once per this much travel
+    #: ... and to the key scans this many either side of it in time (0: not): the front end
+    #: matched it to the scans before it only (``_refine_local``)
+    refine_local: int = 4
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
 
@@ -401,9 +406,10 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
     edges = (ei, ej, ez, einfo, robust)
     for _ in range(cfg.refine if loops else 0):
         added = _refine(poses, keys, travel, surf, cfg, edges)
-        if not added:
+        local = _refine_local(poses, keys, travel, surf, cfg, edges) if cfg.refine_local else 0
+        if not added + local:
             break
-        loops += added
+        loops += added  # the local edges tie a scan to its own stretch: not loops
         poses = pose_graph.solve(poses, *(np.array(e) for e in edges))
         optimisations += 1
     return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
@@ -450,6 +456,51 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
             continue
         if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
             continue
+        ei.append(j)
+        ej.append(int(k))
+        ez.append(relative(poses[j], res.pose))
+        einfo.append(_edge_information(info, poses[j, 2], information=True))
+        robust.append(True)
+        added += 1
+    return added
+
+
+def _refine_local(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces, cfg: AlignConfig,
+                  edges: tuple[list, ...]) -> int:
+    """Every key scan (once per ``refine_every``) matched again, from its corrected pose, to the
+    ``refine_local`` key scans either side of it in time, itself left out. The front end matched
+    each scan to the scans before it only, and each such match is a few centimetres and a few
+    tenths of a degree off (``benchmarks/align_limits.py``): chained along a corridor seen once,
+    that is the error left between the loops. Matched to the scans after it as well, each key
+    scan is tied to both sides of its stretch, and the pose graph averages the one-sided errors
+    instead of adding them up. The edge is from the key scan of that map nearest to it (its pose
+    is what the match's map is most of, near the scan); the tests are the refinement's (the
+    heading and across-corridor tests are not needed: the scan's own neighbours are the same
+    corridor, and a match that says little gets little information). Returns the edges added."""
+    ei, ej, ez, einfo, robust = edges
+    keys_a = np.asarray(keys)
+    added = 0
+    last = -math.inf
+    W = cfg.refine_local
+    for c, k in enumerate(keys_a):
+        if travel[k] - last < cfg.refine_every or c == 0:
+            continue
+        pts = _subsample(surf.points[k], cfg.max_points)
+        if len(pts) < 20:
+            continue
+        near = [int(q) for q in keys_a[max(0, c - W): c + W + 1] if q != k]
+        index = surf.index(near, poses)
+        last = travel[k]
+        # from the corrected pose the scan lies within centimetres of its neighbours: the final
+        # kernel from the start, and few iterations (this pass is about a tenth of the alignment's CPU time)
+        res = align(pts, index, poses[k], width=cfg.width, start_width=cfg.width, max_iterations=cfg.probe_iterations)
+        info = res.information
+        if res.inlier_share < cfg.loop_inliers or not np.isfinite(info).all():
+            continue
+        if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
+            continue
+        d = np.hypot(*(poses[near, :2] - poses[k, :2]).T)
+        j = near[int(np.argmin(d))]
         ei.append(j)
         ej.append(int(k))
         ez.append(relative(poses[j], res.pose))
