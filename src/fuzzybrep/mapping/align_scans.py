@@ -131,9 +131,10 @@ class AlignConfig:
     refine_radius: float = 3.0  #: a key scan this near, passed at least loop_travel ago (or later), is matched
     refine_move: float = 0.3  #: a refinement match moving a scan farther than this is not believed
     refine_every: float = 1.0  #: a key scan is matched again once per this much travel
-    #: ... and to the key scans this many either side of it in time (0: not): the front end
-    #: matched it to the scans before it only (``_refine_local``)
+    #: ... and to the key scans around it in time, at least this many key scans either side (0:
+    #: not): the front end matched it to the scans before it only (``_refine_local``)
     refine_local: int = 4
+    refine_local_every: float = 1.0  #: ... once per this much travel
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
 
@@ -467,8 +468,10 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
 
 def _refine_local(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces, cfg: AlignConfig,
                   edges: tuple[list, ...]) -> int:
-    """Every key scan (once per ``refine_every``) matched again, from its corrected pose, to the
-    ``refine_local`` key scans either side of it in time, itself left out. The front end matched
+    """Every key scan (once per ``refine_local_every``) matched again, from its corrected pose, to the
+    key scans around it in time, itself left out: every other key scan of a block reaching at
+    least ``refine_local`` key scans either side of it (those of the other parity, so that one
+    map serves every key scan of one parity in the block). The front end matched
     each scan to the scans before it only, and each such match is a few centimetres and a few
     tenths of a degree off (``benchmarks/align_limits.py``): chained along a corridor seen once,
     that is the error left between the loops. Matched to the scans after it as well, each key
@@ -483,16 +486,23 @@ def _refine_local(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: 
     last = -math.inf
     W = cfg.refine_local
     for c, k in enumerate(keys_a):
-        if travel[k] - last < cfg.refine_every or c == 0:
+        if travel[k] - last < cfg.refine_local_every or c == 0:
             continue
         pts = _subsample(surf.points[k], cfg.max_points)
         if len(pts) < 20:
             continue
-        near = [int(q) for q in keys_a[max(0, c - W): c + W + 1] if q != k]
-        index = surf.index(near, poses)
+        # the key scans of the other parity in a block of 4W around c's block of 2W: at least W
+        # either side of c, without c, and the same for every key of that parity in the block (one
+        # KD-tree for W matches, not one each: the trees were half of this pass's cost)
+        first = (c // (2 * W)) * (2 * W)
+        lo = max(0, first - W)
+        near = [int(keys_a[i]) for i in range(lo, min(len(keys_a), first + 3 * W)) if i % 2 != c % 2]
+        if not near:
+            continue
+        index = surf.index(near, poses, keep=f"local{c % 2}")
         last = travel[k]
         # from the corrected pose the scan lies within centimetres of its neighbours: the final
-        # kernel from the start, and few iterations (this pass is about a tenth of the alignment's CPU time)
+        # kernel from the start, and few iterations (this pass is about a tenth of the alignment's CPU time on intel)
         res = align(pts, index, poses[k], width=cfg.width, start_width=cfg.width, max_iterations=cfg.probe_iterations)
         info = res.information
         if res.inlier_share < cfg.loop_inliers or not np.isfinite(info).all():
