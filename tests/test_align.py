@@ -136,6 +136,34 @@ def test_align_recovers_the_demo_floors_poses_from_drifting_odometry():
     assert np.allclose(align_scans(moved).poses, result.poses)
 
 
+def test_refinement_ties_a_key_scan_to_the_scans_either_side_of_it():
+    """``_refine_local``: each key scan matched to its neighbours in time, before and after it,
+    at their poses. A key scan put 7 cm and 1° off comes back to where its neighbours say (the
+    simulated floor's scans agree to a centimetre or two at the true poses), and its neighbours'
+    own edges do not follow it."""
+    from fuzzybrep.mapping.align_scans import _refine_local, _Surfaces
+
+    true, drifted = _demo_floor_run()
+    n, moved = 40, 12
+    scans = with_poses(drifted[:n], true[:n])
+    cfg = AlignConfig()
+    travel = np.r_[0.0, np.cumsum(np.hypot(*np.diff(true[:n, :2], axis=0).T))]
+    poses = true[:n].copy()
+    poses[moved] += [0.05, -0.05, math.radians(1.0)]
+    edges: tuple[list, ...] = ([], [], [], [], [])
+    # a stop a metre: every scan is a key scan
+    added = _refine_local(poses, list(range(n)), travel, _Surfaces(scans, cfg), cfg, edges)
+    ei, ej, ez, _, robust = edges
+    assert added == len(ei) > n * 3 // 4 and all(robust)
+    assert all(0 < abs(i - j) <= cfg.refine_local for i, j in zip(ei, ej))
+    q = ej.index(moved)
+    err = ez[q] - relative(true[ei[q]], true[moved])
+    assert math.hypot(err[0], err[1]) < 0.025 and abs(math.degrees(wrap(err[2]))) < 0.1
+    for i, j, z in zip(ei, ej, ez):
+        if moved not in (i, j):
+            assert math.hypot(*(z[:2] - relative(true[i], true[j])[:2])) < 0.025
+
+
 def test_build_with_align_maps_from_the_aligned_poses():
     true, drifted = _demo_floor_run()
     r = build_map(drifted[:40], BuildConfig(align=AlignConfig()))
