@@ -425,7 +425,6 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
     let it; now every place seen twice ties its two visits together. Each match that explains the
     scan (the loop's tests) and moves it less than ``refine_move`` adds a robust edge. Returns the
     number of edges added to ``edges`` (ei, ej, ez, einfo, robust lists, extended in place)."""
-    ei, ej, ez, einfo, robust = edges
     keys_a = np.asarray(keys)
     added = 0
     last = -math.inf
@@ -455,32 +454,36 @@ def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfa
             continue
         if np.linalg.eigvalsh(info[:2, :2]).max() < cfg.loop_sigma ** -2 or info[2, 2] < cfg.loop_heading_sigma ** -2:
             continue
-        if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
-            continue
-        ei.append(j)
-        ej.append(int(k))
-        ez.append(relative(poses[j], res.pose))
-        einfo.append(_edge_information(info, poses[j, 2], information=True))
-        robust.append(True)
-        added += 1
+        added += _add_refined(edges, j, int(k), poses, res, cfg)
     return added
+
+
+def _add_refined(edges: tuple[list, ...], j: int, k: int, poses: np.ndarray, res, cfg: AlignConfig) -> int:
+    """A refinement's robust edge from key scan j to scan k at its matched pose ``res``, unless the
+    match moved k farther than ``refine_move`` from its corrected pose. 1 if added, else 0."""
+    if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
+        return 0
+    ei, ej, ez, einfo, robust = edges
+    ei.append(j)
+    ej.append(k)
+    ez.append(relative(poses[j], res.pose))
+    einfo.append(_edge_information(res.information, poses[j, 2], information=True))
+    robust.append(True)
+    return 1
 
 
 def _refine_local(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces, cfg: AlignConfig,
                   edges: tuple[list, ...]) -> int:
     """Every key scan (once per ``refine_local_every``) matched again, from its corrected pose, to the
-    key scans around it in time, itself left out: every other key scan of a block reaching at
-    least ``refine_local`` key scans either side of it (those of the other parity, so that one
-    map serves every key scan of one parity in the block). The front end matched
-    each scan to the scans before it only, and each such match is a few centimetres and a few
-    tenths of a degree off (``benchmarks/align_limits.py``): chained along a corridor seen once,
-    that is the error left between the loops. Matched to the scans after it as well, each key
-    scan is tied to both sides of its stretch, and the pose graph averages the one-sided errors
-    instead of adding them up. The edge is from the key scan of that map nearest to it (its pose
-    is what the match's map is most of, near the scan); the tests are the refinement's (the
-    heading and across-corridor tests are not needed: the scan's own neighbours are the same
-    corridor, and a match that says little gets little information). Returns the edges added."""
-    ei, ej, ez, einfo, robust = edges
+    key scans around it in time, itself left out: those of the other parity in a block reaching at
+    least ``refine_local`` key scans either side (one map serves every key scan of one parity in
+    the block). The front end matched each scan to the scans before it only, each match a few
+    centimetres and tenths of a degree off (``benchmarks/align_limits.py``): chained along a
+    corridor seen once, that is the error left between the loops. Tied to both sides of its
+    stretch, the pose graph averages the one-sided errors. The edge is from the map's key scan
+    nearest to it; the tests are the refinement's but for heading and across-corridor (its own
+    neighbours are the same corridor; a match that says little gets little information).
+    Returns the edges added."""
     keys_a = np.asarray(keys)
     added = 0
     last = -math.inf
@@ -507,16 +510,8 @@ def _refine_local(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: 
         info = res.information
         if res.inlier_share < cfg.loop_inliers or not np.isfinite(info).all():
             continue
-        if math.hypot(*(res.pose[:2] - poses[k, :2])) > cfg.refine_move:
-            continue
         d = np.hypot(*(poses[near, :2] - poses[k, :2]).T)
-        j = near[int(np.argmin(d))]
-        ei.append(j)
-        ej.append(int(k))
-        ez.append(relative(poses[j], res.pose))
-        einfo.append(_edge_information(info, poses[j, 2], information=True))
-        robust.append(True)
-        added += 1
+        added += _add_refined(edges, near[int(np.argmin(d))], int(k), poses, res, cfg)
     return added
 
 
