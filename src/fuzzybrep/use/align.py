@@ -35,6 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..scans.scan import wrap
+
 
 #: the wide kernels of ``align`` fit at least this many endpoints (a subsample), for at most
 #: this many iterations each
@@ -252,44 +254,37 @@ class Alignment:
         return self.matches / judged if judged > 0 else 0.0
 
 
+def _adjugate(H: np.ndarray) -> tuple[tuple[tuple[float, ...], ...], float]:
+    """(adj(H) as rows, det H) of a 3 × 3 matrix, in Python floats: np.linalg's own overhead is
+    several times the arithmetic, and ``align`` solves once an iteration."""
+    (a, b, c), (d, e, f), (g, h, i) = H.tolist()
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    adj = ((A, c * h - b * i, b * f - c * e), (B, a * i - c * g, c * d - a * f), (C, b * g - a * h, a * e - b * d))
+    return adj, a * A + b * B + c * C
+
+
 def _solve(H: np.ndarray, g: np.ndarray) -> np.ndarray | None:
-    """The Gauss-Newton step −H⁻¹g, None when H is singular. 3 × 3 by the adjugate in Python
-    floats: np.linalg.solve's own overhead is several times the arithmetic, once an iteration."""
+    """The Gauss-Newton step −H⁻¹g, None when H is singular (3 × 3 by ``_adjugate``)."""
     if len(g) != 3:
         try:
             return -np.linalg.solve(H, g)
         except np.linalg.LinAlgError:
             return None
-    (a, b, c), (d, e, f), (g_, h, i) = H.tolist()
-    A, B, C = e * i - f * h, f * g_ - d * i, d * h - e * g_
-    det = a * A + b * B + c * C
+    adj, det = _adjugate(H)
     if det == 0 or not math.isfinite(det):
         return None
     r0, r1, r2 = g.tolist()
-    # H⁻¹ = adj(H) / det, adj(H) the transposed cofactors
-    x0 = A * r0 + (c * h - b * i) * r1 + (b * f - c * e) * r2
-    x1 = B * r0 + (a * i - c * g_) * r1 + (c * d - a * f) * r2
-    x2 = C * r0 + (b * g_ - a * h) * r1 + (a * e - b * d) * r2
-    return np.array((-x0 / det, -x1 / det, -x2 / det))
+    return np.array([-(p * r0 + q * r1 + r * r2) / det for p, q, r in adj])
 
 
 def _inverse(H: np.ndarray) -> np.ndarray:
-    """H⁻¹ (LinAlgError when singular); 3 × 3 by the adjugate in Python floats, as ``_solve``."""
+    """H⁻¹ (LinAlgError when singular; 3 × 3 by ``_adjugate``)."""
     if H.shape != (3, 3):
         return np.linalg.inv(H)
-    (a, b, c), (d, e, f), (g, h, i) = H.tolist()
-    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
-    det = a * A + b * B + c * C
+    adj, det = _adjugate(H)
     if det == 0 or not math.isfinite(det):
         raise np.linalg.LinAlgError("singular matrix")
-    return np.array(((A, c * h - b * i, b * f - c * e), (B, a * i - c * g, c * d - a * f),
-                     (C, b * g - a * h, a * e - b * d))) / det
-
-
-def _wrap(angle: float) -> float:
-    """``scans.scan.wrap`` of one angle, in Python floats (the same value: % is Python's floored
-    modulo in both)."""
-    return (float(angle) + math.pi) % (2 * math.pi) - math.pi
+    return np.array(adj) / det
 
 
 def transform(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -359,7 +354,7 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         g = Jw.T @ du
         if prior is not None:
             e = x - prior_pose
-            e[2] = _wrap(e[2])
+            e[2] = wrap(e[2])
             H[:3, :3] += info
             g[:3] += info @ e
         if npar == 4:
@@ -369,7 +364,7 @@ def align(points: np.ndarray, index: SegmentIndex, pose: np.ndarray, *, width: f
         if step is None:
             break
         x = x + step[:3]
-        x[2] = _wrap(x[2])
+        x[2] = wrap(x[2])
         if npar == 4:
             b += float(step[3])
         small = math.hypot(step[0], step[1]) < tolerance and abs(step[2]) < tolerance
