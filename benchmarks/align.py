@@ -44,6 +44,7 @@ sys.path.insert(0, str(HERE))
 
 from fuzzybrep.fuzzy.map import fuzzify  # noqa: E402
 from fuzzybrep.mapping.align_scans import AlignConfig, align_scans, with_poses  # noqa: E402
+from fuzzybrep.use.align import transform  # noqa: E402
 from fuzzybrep.mapping.build import BuildConfig, build_map  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from fuzzybrep.sim.drift import DriftModel, drift_scans, drift_stats  # noqa: E402
@@ -91,7 +92,14 @@ def anchor_disagreement(scans, radius: float = 5.0) -> float:
     return float(np.angle(np.exp(1j * (res.pose[2] - true[0, 2]))))
 
 
-def consistency(scans, poses: np.ndarray, radius: float = 4.0, apart: int = 50, reach: float = 0.5,
+def surfaces(scans):
+    """Every scan's surfaces as the alignment makes them (``consistency`` asks them at any poses)."""
+    from fuzzybrep.mapping.align_scans import _Surfaces
+
+    return _Surfaces(scans, AlignConfig())
+
+
+def consistency(surf, poses: np.ndarray, radius: float = 4.0, apart: int = 50, reach: float = 0.5,
                 samples: int = 150) -> dict:
     """How well a set of poses makes the scans agree where the robot came back: for about
     ``samples`` scans spread over the log, each return's distance to the nearest surface
@@ -99,21 +107,16 @@ def consistency(scans, poses: np.ndarray, radius: float = 4.0, apart: int = 50, 
     poses lie within ``radius`` (another pass of the same place), counted where one lies within
     ``reach``. {"median": m, "within_5cm": share, "points": n}. Both pose sets are judged by the
     same scans, so the one with the smaller residuals is the more consistent with them; the
-    corrected poses are a SLAM result too, not the truth."""
-    from fuzzybrep.mapping.align_scans import AlignConfig, _Surfaces
-
-    cfg = AlignConfig()
-    surf = _Surfaces(scans, cfg)
+    corrected poses are a SLAM result too, not the truth. ``surf``: the scans' ``surfaces``."""
     P = np.asarray(poses, np.float64)
-    step = max(1, len(scans) // samples)
+    n = len(P)
+    step = max(1, n // samples)
     d_all = []
-    for k in range(0, len(scans), step):
-        j = np.flatnonzero((np.abs(np.arange(len(scans)) - k) > apart) & (np.hypot(*(P[:, :2] - P[k, :2]).T) < radius))
+    for k in range(0, n, step):
+        j = np.flatnonzero((np.abs(np.arange(n) - k) > apart) & (np.hypot(*(P[:, :2] - P[k, :2]).T) < radius))
         if len(j) == 0 or len(surf.points[k]) == 0:
             continue
-        c, s = np.cos(P[k, 2]), np.sin(P[k, 2])
-        world = surf.points[k] @ np.array([[c, s], [-s, c]]) + P[k, :2]
-        d = surf.index(j.tolist(), P).nearest(world, reach)[1]
+        d = surf.index(j.tolist(), P).nearest(transform(surf.points[k], P[k]), reach)[1]
         d_all.append(d[np.isfinite(d)])
     d = np.concatenate(d_all) if d_all else np.zeros(0)
     if not len(d):
@@ -184,7 +187,8 @@ def bench(name: str, path: Path, repeat: int, plots: Path | None, seeds: int = 1
     print(f"[align {name}] rmse {row['rmse']:.3f} m (ATE {row['ate']:.3f}), {result.loops} loops; held-out maps",
           file=sys.stderr, flush=True)
     # which poses the scans agree with better where the robot came back: the corrected or the aligned
-    row["consistency"] = {"corrected": consistency(scans, true), "aligned": consistency(scans, result.poses)}
+    surf = surfaces(scans)
+    row["consistency"] = {"corrected": consistency(surf, true), "aligned": consistency(surf, result.poses)}
     row["corrected"] = held_out(scans)
     row["aligned"] = held_out(aligned)
     row["odometry"] = held_out(at_odo)
