@@ -9,7 +9,7 @@ makes the odometry. Three maps, each from every second scan, judged on the held-
 held-out sensor positions in the map's free space):
 
 * corrected: the scans at the log's corrected poses (the reference);
-* aligned: the scans at the poses ``mapping.align_scans`` found from the odometry alone, all
+* aligned: the scans at the poses ``registration.align_scans`` found from the odometry alone, all
   scans aligned, then every second held out (what ``build --align`` gives);
 * odometry: the scans at the drifting odometry poses (what ``build`` without ``--align`` gives).
 
@@ -43,8 +43,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from fuzzybrep.fuzzy.map import fuzzify  # noqa: E402
-from fuzzybrep.mapping.align_scans import AlignConfig, align_scans, with_poses  # noqa: E402
-from fuzzybrep.use.align import transform  # noqa: E402
+from fuzzybrep.registration.align_scans import AlignConfig, align_scans, with_poses  # noqa: E402
+from fuzzybrep.registration.segment_match import transform  # noqa: E402
 from fuzzybrep.mapping.build import BuildConfig, build_map  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from fuzzybrep.sim.drift import DriftModel, drift_scans, drift_stats  # noqa: E402
@@ -74,12 +74,12 @@ def ate(a: np.ndarray, b: np.ndarray) -> float:
 
 def anchor_disagreement(scans, radius: float = 5.0) -> float:
     """Radians by which the log's own first pose disagrees with the map its corrected poses make:
-    the first scan aligned (``use.align.align``, from that pose) to the surfaces of the corrected
+    the first scan aligned (``registration.segment_match.align``, from that pose) to the surfaces of the corrected
     scans within ``radius`` of it, its three successors left out. The aligned poses keep the first
     pose as it is (the map's frame), so a corrected map turned by this much against its own first
     scan counts, in the anchored RMSE, at every pose (``anchor_floor``)."""
-    from fuzzybrep.mapping.align_scans import AlignConfig, _Surfaces
-    from fuzzybrep.use.align import align
+    from fuzzybrep.registration.align_scans import AlignConfig, _Surfaces
+    from fuzzybrep.registration.segment_match import align
 
     true = np.array([s.pose for s in scans])
     near = [j for j in range(4, len(scans)) if np.hypot(*(true[j, :2] - true[0, :2])) < radius]
@@ -94,7 +94,7 @@ def anchor_disagreement(scans, radius: float = 5.0) -> float:
 
 def surfaces(scans):
     """Every scan's surfaces as the alignment makes them (``consistency`` asks them at any poses)."""
-    from fuzzybrep.mapping.align_scans import _Surfaces
+    from fuzzybrep.registration.align_scans import _Surfaces
 
     return _Surfaces(scans, AlignConfig())
 
@@ -103,7 +103,7 @@ def consistency(surf, poses: np.ndarray, radius: float = 4.0, apart: int = 50, r
                 samples: int = 150) -> dict:
     """How well a set of poses makes the scans agree where the robot came back: for about
     ``samples`` scans spread over the log, each return's distance to the nearest surface
-    (``mapping.align_scans``'s polylines) of the scans more than ``apart`` scans away in time whose
+    (``registration.align_scans``'s polylines) of the scans more than ``apart`` scans away in time whose
     poses lie within ``radius`` (another pass of the same place), counted where one lies within
     ``reach``. {"median": m, "within_5cm": share, "points": n}. Both pose sets are judged by the
     same scans, so the one with the smaller residuals is the more consistent with them; the

@@ -4,7 +4,7 @@
 
 For each shared log (default aces, intel, orebro), from the log's corrected poses, not from odometry:
 
-* match vs corrected pose: every scan aligned (``use.align.align``, the front end's settings)
+* match vs corrected pose: every scan aligned (``registration.segment_match.align``, the front end's settings)
   to the surfaces of the 16 key scans before it at their corrected poses, from its own corrected
   pose: the median distance and heading between where it lands and where it started;
 * fixed point: a pose graph of those matches (consecutive edges) and of ``_refine``'s matches of
@@ -17,7 +17,7 @@ For each shared log (default aces, intel, orebro), from the log's corrected pose
   precision where the poses have no error (against the real logs' match vs corrected pose, what
   is the corrected poses' own).
 
-The odometry's systematic error ``mapping.calibrate_odometry`` learns from the benchmark's drift
+The odometry's systematic error ``registration.calibrate_odometry`` learns from the benchmark's drift
 (5 %, 2°/m, 2 % of every turn; seed 0). And the demo floor's first 40 scans (``tests/test_align.py``'s run) aligned with and without the
 odometry calibration: RMSE against the true poses.
 """
@@ -35,11 +35,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from fuzzybrep.mapping import align_scans as A  # noqa: E402
-from fuzzybrep.mapping import pose_graph  # noqa: E402
+from fuzzybrep.registration import pose_graph  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from fuzzybrep.scans.scan import relative, wrap  # noqa: E402
 from fuzzybrep.sim.drift import DriftModel, drift_scans  # noqa: E402
-from fuzzybrep.use.align import align  # noqa: E402
+from fuzzybrep.registration.segment_match import align  # noqa: E402
 from align import ate, rmse  # noqa: E402
 from grid import datasets, every_log  # noqa: E402
 

@@ -1,4 +1,4 @@
-"""Issue 22: maps from drifting odometry (mapping.align_scans, mapping.pose_graph, build --align)."""
+"""Issue 22: maps from drifting odometry (registration.align_scans, registration.pose_graph, build --align)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from fuzzybrep import cli
-from fuzzybrep.mapping import pose_graph
-from fuzzybrep.mapping.align_scans import AlignConfig, align_scans, odometry_of, with_poses
+from fuzzybrep.registration import pose_graph
+from fuzzybrep.registration.align_scans import AlignConfig, align_scans, odometry_of, with_poses
 from fuzzybrep.mapping.build import BuildConfig, build_map
 from fuzzybrep.scans.scan import Scan, compose, relative, wrap
 from fuzzybrep.sim.drift import DriftModel, drift_scans
@@ -141,7 +141,7 @@ def test_refinement_ties_a_key_scan_to_the_scans_either_side_of_it():
     at their poses. A key scan put 7 cm and 1° off comes back to where its neighbours say (the
     simulated floor's scans agree to a centimetre or two at the true poses), and its neighbours'
     own edges do not follow it."""
-    from fuzzybrep.mapping.align_scans import _refine_local, _Surfaces
+    from fuzzybrep.registration.align_scans import _refine_local, _Surfaces
 
     true, drifted = _demo_floor_run()
     n, moved = 40, 12
@@ -204,7 +204,7 @@ def _chord(d: float, turn: float) -> np.ndarray:
 
 
 def test_odometry_calibration_learns_umbmark_errors_and_takes_them_out():
-    from fuzzybrep.mapping.calibrate_odometry import OdometryCalibration
+    from fuzzybrep.registration.calibrate_odometry import OdometryCalibration
 
     rng = np.random.default_rng(4)
     a, kappa, c = 0.05, math.radians(2.0), 0.02  # the benchmark's systematic drift
@@ -249,7 +249,7 @@ def _corridor(bays: int, bay: float = 3.0, irregular: bool = False) -> tuple[np.
 
 def _scan_of(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spacing: float = 0.05) -> np.ndarray:
     """Points along the segments within 6 m of ``pose``, in its frame (what a scan there would see, near enough)."""
-    from fuzzybrep.use.align import sample_segments
+    from fuzzybrep.registration.segment_match import sample_segments
 
     pts, _ = sample_segments(a, b, spacing)
     pts = pts[np.hypot(*(pts - pose[:2]).T) < 6.0]
@@ -259,8 +259,8 @@ def _scan_of(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spacing: float = 0.
 
 
 def test_a_loop_match_one_bay_along_a_repeating_corridor_has_a_rival():
-    from fuzzybrep.mapping.align_scans import _rival
-    from fuzzybrep.use.align import SegmentIndex, align
+    from fuzzybrep.registration.align_scans import _rival
+    from fuzzybrep.registration.segment_match import SegmentIndex, align
 
     cfg = AlignConfig()
     a, b = _corridor(8)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from fuzzybrep.mapping import pose_graph
-from fuzzybrep.mapping.align_scans import AlignConfig, _Surfaces
+from fuzzybrep.registration import pose_graph
+from fuzzybrep.registration.align_scans import AlignConfig, _Surfaces
 from fuzzybrep.scans.scan import Scan, relative
-from fuzzybrep.use.align import SegmentIndex, _inverse, _solve, transform
+from fuzzybrep.registration.segment_match import SegmentIndex, _inverse, _solve, transform
 
 
 def _polylines(rng: np.random.Generator, n: int = 40) -> tuple[np.ndarray, np.ndarray]:

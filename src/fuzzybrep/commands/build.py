@@ -76,7 +76,7 @@ def config_from_args(args):
     if args.simplify is not None:
         cfg = replace(cfg, simplify=args.simplify)
     if getattr(args, "align", False):
-        from ..mapping.align_scans import AlignConfig
+        from ..registration.align_scans import AlignConfig
 
         cfg = replace(cfg, align=AlignConfig(loop_closure=not args.no_loops))
     return cfg
@@ -151,7 +151,7 @@ def run(args) -> int:
     scans = result.scans  # the aligned poses, with --align
     align_notes = []
     if result.alignment is not None:
-        from ..mapping.align_scans import pose_error
+        from ..registration.align_scans import pose_error
 
         al = result.alignment
         poor = al.poor()

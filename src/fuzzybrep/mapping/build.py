@@ -31,7 +31,7 @@ from .evidence import EvidenceConfig, Rays
 from .scan_polygon import PolygonConfig, ScanPolygon, scan_polygons
 
 if TYPE_CHECKING:
-    from .align_scans import AlignConfig, AlignResult
+    from ..registration.align_scans import AlignConfig, AlignResult
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class BuildConfig:
     #: width, under which a sliver has no α = 0 inner cut; 0: off
     finger_width: float | None = None
     unit: str = "m"
-    #: align every scan to the map so far from its odometry (``mapping.align_scans``) and build
+    #: align every scan to the map so far from its odometry (``registration.align_scans``) and build
     #: from the aligned poses; None: the scans' poses are taken as they are
     align: "AlignConfig | None" = None
 
@@ -115,7 +115,7 @@ def build_map(scans: Sequence[Scan], config: BuildConfig = BuildConfig(), progre
     timer = _Timer()
     alignment = None
     if config.align is not None:
-        from .align_scans import align_scans, with_poses
+        from ..registration.align_scans import align_scans, with_poses
 
         with timer("align"):
             alignment = align_scans(scans, config.align, progress=(lambda d, t: progress("align", d, t)) if progress else None)

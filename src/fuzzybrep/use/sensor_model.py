@@ -29,7 +29,7 @@ import shapely
 from ..brep import FRONTIER, OBSTACLE, BRepMap
 from ..scans.scan import Scan
 from ..fuzzy.membership import MembershipTable
-from .align import SegmentIndex
+from ..registration.segment_match import SegmentIndex
 
 #: spacing of the samples along the edges (m): nearest-edge distances are exact to half of it
 SAMPLE_SPACING = 0.02

@@ -34,7 +34,7 @@ import math
 import numpy as np
 
 from ..scans.scan import compose, decompose, recompose, relative, wrap
-from .align import Alignment, align
+from ..registration.segment_match import Alignment, align
 from .sensor_model import SensorModel
 
 TRACKED, LOST = 0, 1

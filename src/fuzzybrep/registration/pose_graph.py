@@ -1,4 +1,4 @@
-"""A 2-D pose graph solved by sparse Gauss-Newton: the loop closure of ``mapping.align_scans``.
+"""A 2-D pose graph solved by sparse Gauss-Newton: the loop closure of ``registration.align_scans``.
 
 Nodes are poses x_k = (x, y, θ); an edge (i, j, z, Ω) says that pose j seen from pose i is z
 (3,), with information Ω (3, 3, in i's frame). The solution minimises Σ ρ(eᵀ Ω e) over the

@@ -2,7 +2,7 @@
 
 A robot's odometry is wrong in ways that repeat (Appendix I, after Borenstein & Feng's UMBmark):
 unequal or worn wheels report more or less distance than was driven and turn a little with every
-metre driven straight, a wrong wheelbase scales every turn. ``mapping.align_scans`` starts each
+metre driven straight, a wrong wheelbase scales every turn. ``registration.align_scans`` starts each
 scan from the odometry's step and lets the scan correct it; where the scan cannot (along a
 featureless corridor, a scan that sees little it has seen before) the step stays as the
 odometry says, and its systematic error accumulates (5 % of a 40 m corridor is 2 m). Every scan

@@ -107,7 +107,7 @@ class SegmentIndex:
     def placed(cls, a: np.ndarray, b: np.ndarray, direction: np.ndarray, length: np.ndarray, samples: np.ndarray,
                samples_of: np.ndarray, spacing: float) -> "SegmentIndex":
         """An index of kind-0 segments whose directions, lengths and samples the caller has worked
-        out already (``mapping.align_scans`` moves each scan's segments rigidly once and joins the
+        out already (``registration.align_scans`` moves each scan's segments rigidly once and joins the
         pieces of a local map: the checks and the per-segment arithmetic of ``__init__`` would be
         most of the index's cost, rebuilt at every scan)."""
         self = cls.__new__(cls)

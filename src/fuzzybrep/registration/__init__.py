@@ -1,0 +1,1 @@
+"""Registration: where scans lie, from their odometry and from each other."""
