@@ -32,6 +32,11 @@ class ScanValueError(ScanFormatError):
     """A scan holds an impossible value (NaN or negative range, NaN pose)."""
 
 
+class AlignmentError(FuzzyBrepError):
+    """``build --align --strict``: the aligned poses failed their check against the scans; names the
+    log and the spans of it that failed."""
+
+
 class GeometryError(FuzzyBrepError, ValueError):
     """A polygon is degenerate or self-intersecting: names the ring and the vertex."""
 

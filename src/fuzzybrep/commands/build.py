@@ -48,6 +48,9 @@ def add_arguments(p) -> None:
                         "and close loops (a pose graph) before mapping; the aligned poses and each scan's match quality "
                         "go into the map file. Uses the log's odometry only (its odom fields where it has them)")
     p.add_argument("--no-loops", action="store_true", help="with --align: no loop closure (scan-to-map alignment only)")
+    p.add_argument("--strict", action="store_true",
+                   help="with --align: an alignment that fails its check against the scans (returns in space another "
+                        "pass saw free) is an error (exit status 2, no map written) instead of a warning")
     p.add_argument("--widen-tme", action="store_true",
                    help="with --align: add the aligned poses' own error (90th percentile of the per-scan σ, at least "
                         "2 cm) to TME, as the thesis adds the odometry's error to the laser's")
@@ -116,10 +119,11 @@ def run(args) -> int:
         from rich.console import Console
 
         console = Console(stderr=True)
-    if (args.no_loops or args.widen_tme) and not args.align:
+    if (args.no_loops or args.widen_tme or args.strict) and not args.align:
         from ..errors import FuzzyBrepError
 
-        raise FuzzyBrepError(f"{'--no-loops' if args.no_loops else '--widen-tme'} needs --align")
+        flag = '--no-loops' if args.no_loops else '--widen-tme' if args.widen_tme else '--strict'
+        raise FuzzyBrepError(f"{flag} needs --align")
     cfg = config_from_args(args)
     check_outputs(args.out, args.plot, inputs=(args.log,))  # before the work, not after it
     if args.plot:
@@ -159,6 +163,13 @@ def run(args) -> int:
                            f"median match {100 * float(np.median(al.quality.inliers)):.0f} % of returns")
         if al.calibration is not None and al.calibration.steps:
             align_notes.append(f"--align: {al.calibration.describe()}, taken out of every step")
+        if al.check is not None:
+            verdict = al.check.describe(scans)
+            if not al.check.ok and args.strict:
+                from ..errors import AlignmentError
+
+                raise AlignmentError(f"{args.log}: {verdict} (--strict: no map written)")
+            align_notes.insert(0, ("" if al.check.ok else "WARNING: ") + f"--align: {verdict}")
         if len(poor):
             share = len(poor) / len(scans)
             align_notes.append(f"note: alignment poor for {len(poor)} scan(s) ({100 * share:.1f} %; first: "

@@ -45,6 +45,7 @@ import numpy as np
 from ..scans.scan import Scan, compose, relative, wrap
 from . import pose_graph
 from .calibrate_odometry import OdometryCalibration
+from .check import AlignmentCheck, check_alignment
 from .config import HEADING_FLOOR, POSE_FLOOR, AlignConfig, OdometryNoise  # noqa: F401 (the API)
 from .correlative import LikelihoodField
 from .loop_closure import _refine, _refine_local, _rival, _try_loop  # noqa: F401 (tests use _rival)
@@ -73,6 +74,8 @@ class AlignResult:
     config: AlignConfig
     #: the odometry's systematic error as learnt (``registration.calibrate_odometry``; None when not learnt)
     calibration: OdometryCalibration | None = None
+    #: the aligned poses checked against the scans (``registration.check``; None: not checked)
+    check: AlignmentCheck | None = None
 
     def poor(self) -> np.ndarray:
         """Indices of the scans whose alignment is poor (``AlignConfig.poor_*``)."""
@@ -85,6 +88,8 @@ class AlignResult:
         out = {"method": "scan-to-map alignment from odometry, pose-graph loop closure",
                "loops": int(self.loops), "poor_scans": int(len(self.poor())),
                "inliers": np.round(q.inliers, 4).tolist(), "sigma": np.round(q.sigma, 4).tolist()}
+        if self.check is not None:
+            out["check"] = self.check.metadata()
         if self.calibration is not None:
             kappa, c = self.calibration.kappa_c
             out["odometry_error"] = {"distance": round(self.calibration.a, 5), "heading_deg_per_m": round(math.degrees(kappa), 4),
@@ -158,11 +163,16 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
             index, index_keys = surf.index(window, poses), window
             field_ = LikelihoodField(index.samples, cfg.search_resolution, cfg.search_sigma) if cfg.search_sigmas else None
         if len(index) and len(pts) >= 4:
-            start = guess
-            if field_ is not None:
-                start = _search(field_, pts, guess, prior_info, cfg)
-            res = align(pts, index, start, width=cfg.width, start_width=cfg.start_width, prior=(start, prior_info),
+            res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
                         max_iterations=cfg.iterations)
+            if field_ is not None and res.inlier_share < cfg.search_below:
+                # the odometry's guess was not good enough a start: search its window, refine from
+                # the best pose found, keep whichever explains more of the scan
+                start = _search(field_, pts, guess, prior_info, cfg)
+                alt = align(pts, index, start, width=cfg.width, start_width=cfg.start_width, prior=(start, prior_info),
+                            max_iterations=cfg.iterations)
+                if alt.inlier_share > res.inlier_share:
+                    res = alt
             poses[k] = res.pose
             inliers[k], sigma[k], matches[k] = res.inlier_share, _sigma(res.covariance), res.matches
             cov = res.covariance
@@ -181,6 +191,8 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
             fixed_along = bool(matches[k]) and _fixed_along(steps[k - 1], res.information, poses[k - 1, 2], cfg)
             recent = recent[-cfg.direction_steps + 1:] + [(steps[k - 1, 0], relative(poses[k - 1], poses[k])[0], fixed_along)]
             flip = _direction(recent, cfg)
+            if abs(steps[k - 1, 0]) < cfg.direction_stop and abs(steps[k - 1, 2]) < cfg.direction_stop_turn:
+                flip = False  # a robot that stopped starts again the way its odometry says
             if flip is not None and flip != backwards:
                 backwards, fixed = flip, None  # no calibration stretch across a reversal
         ei.append(k - 1)
@@ -223,30 +235,37 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
         loops += added  # the local edges tie a scan to its own stretch: not loops
         poses = pose_graph.solve(poses, *(np.array(e) for e in edges))
         optimisations += 1
+    checked = check_alignment(scans, poses) if cfg.check else None
     return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
-                       calibration if cfg.calibrate else None)
+                       calibration if cfg.calibrate else None, checked)
 
 
 def _direction(recent: list, cfg: AlignConfig) -> bool | None:
     """Whether the odometry reports the robot's travel reversed (True), the right way (False), or
-    the scans cannot tell yet (None), from ``recent``: the last ``direction_steps`` steps' (odometry
-    forward travel, aligned forward travel, whether the match fixed the travel to
-    ``direction_sigma``). Every one of them must be fixed, and together the odometry's must be at
-    least ``direction_min``; the aligned travel must then go the other way by at least half of it.
+    the scans cannot tell (None), from ``recent``: the last steps' (odometry forward travel,
+    aligned forward travel, whether the match fixed the travel to ``direction_sigma``). It can tell
+    when each of the last ``direction_steps`` was fixed, the odometry's steps all went one way by at
+    least ``direction_min``, and the aligned steps all went the same way as them (False) or all
+    the other way (True), by at least a third of them.
 
     Odometry that loses the sign of the robot's velocity is not hypothetical: the benchmark's fr079
     log, as rebuilt from its bag, advances the robot's x, y along its heading while its ODOM lines'
     own velocity is −0.5 m/s and the scans show it backing up a corridor for 3 m. No window a drift
     model allows covers that (0.2 m off every 0.1 m step), and along a corridor the scan cannot
-    correct it; the last steps whose match could tell can. Several steps, not one: intel's repeated
-    timestamps make single odometry steps jump back and forth by decimetres."""
-    if len(recent) < cfg.direction_steps or not all(r[2] for r in recent[-cfg.direction_steps:]):
+    correct it; the last steps whose match could tell can. Several steps that agree, not one:
+    intel's repeated timestamps make single odometry steps jump back and forth by decimetres."""
+    last = recent[-cfg.direction_steps:]
+    if len(last) < cfg.direction_steps or not all(r[2] for r in last):
         return None
-    odo = sum(r[0] for r in recent[-cfg.direction_steps:])
-    ali = sum(r[1] for r in recent[-cfg.direction_steps:])
-    if abs(odo) < cfg.direction_min or abs(ali) < 0.5 * abs(odo):
+    odo = np.array([r[0] for r in last])
+    ali = np.array([r[1] for r in last])
+    if not (np.all(odo >= cfg.direction_min) or np.all(odo <= -cfg.direction_min)):
         return None
-    return odo * ali < 0
+    if np.all(ali * np.sign(odo) >= np.abs(odo) / 3):
+        return False
+    if np.all(-ali * np.sign(odo) >= np.abs(odo) / 3):
+        return True
+    return None
 
 
 def _fixed_along(step: np.ndarray, information: np.ndarray, heading: float, cfg: AlignConfig) -> bool:

@@ -63,12 +63,12 @@ class AlignConfig:
     loop_travel: float = 8.0  #: a place passed at least this much travel ago is a loop candidate
     loop_radius: float = 0.5  #: ... when within this distance of the scan's estimate (and more: ``_try_loop``)
     loop_window: int = 4  #: key scans either side of the candidate in the loop's local map
-    loop_growth: float = 0.05  #: ... plus this share of the travel since (``_try_loop``)
+    loop_growth: float = 0.08  #: ... plus this share of the travel since (``_try_loop``)
     loop_max_radius: float = 10.0
     #: the match may move the scan at most loop_radius + this share of the travel since: a front
     #: end that drifts more than this loses that loop, one that slides along a corridor whose
     #: doors repeat is not believed
-    loop_slide: float = 0.025
+    loop_slide: float = 0.06
     #: an old place is a candidate this much farther than the drift reaches: the other side of a
     #: corridor, or a room seen from its door, is the same place (the match's own correction
     #: must still lie within the drift's reach)
@@ -96,12 +96,14 @@ class AlignConfig:
     #: not): the front end matched it to the scans before it only (``_refine_local``)
     refine_local: int = 4
     refine_local_every: float = 1.0  #: ... once per this much travel
+    check: bool = True  #: check the aligned poses against the scans at the end (``registration.check``)
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
     #: correlative search before each scan's match (``registration.correlative``): the window is
     #: ±(search_sigmas × the odometry step's σ), at least search_window and search_angle, at most
     #: search_max and search_max_angle; 0 search_sigmas: no search (the odometry's guess is the start)
     search_sigmas: float = 3.0
+    search_below: float = 0.85  #: ... when the match from the odometry's guess explains less of the scan than this
     search_window: float = 0.3
     search_angle: float = math.radians(6.0)
     search_max: float = 1.0
@@ -116,8 +118,11 @@ class AlignConfig:
     loop_search_resolution: float = 0.1
     loop_search_turn: float = math.radians(0.5)
     #: follow the sign of the odometry's travel from the last direction_steps steps, when each
-    #: match fixes the travel to direction_sigma and they add up to direction_min (``_direction``)
+    #: match fixes the travel to direction_sigma and each went one way by direction_min
+    #: (``_direction``); a stop ends a reversal
     direction_check: bool = True
-    direction_steps: int = 5
-    direction_min: float = 0.15
+    direction_steps: int = 3
+    direction_min: float = 0.02
     direction_sigma: float = 0.02
+    direction_stop: float = 0.005  #: an odometry step shorter than this (m) and ...
+    direction_stop_turn: float = math.radians(0.2)  #: ... turning less than this is a stop
