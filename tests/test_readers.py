@@ -183,7 +183,7 @@ def test_a_report_shared_by_several_reads_describes_each_file(tmp_path):
     report = ReadReport()
     read_carmen(write_log(tmp_path / "first.log", [GOOD[3], flaser([1.0, -1.0, 2.0])]), skip_bad=True, report=report)
     assert report.skipped == 1
-    with pytest.raises(ScanFormatError, match=r"empty.log: no FLASER scans in this file$"):
+    with pytest.raises(ScanFormatError, match=r"empty.log: no FLASER, ROBOTLASER1 or RAWLASER1 scans in this file$"):
         read_carmen(write_log(tmp_path / "empty.log", ["# nothing\n"]), skip_bad=True, report=report)
     with pytest.raises(ScanFormatError, match=r"bad.log: no usable FLASER scans: all 1 were skipped as bad "
                                               r"\(first: .*bad.log, line 1, field r_1"):
@@ -192,7 +192,7 @@ def test_a_report_shared_by_several_reads_describes_each_file(tmp_path):
 
 def test_carmen_empty_and_missing_files(tmp_path):
     p = write_log(tmp_path / "empty.log", ["# nothing\n", "ODOM 0 0 0 0 0 0 0 h 0\n"])
-    with pytest.raises(ScanFormatError, match="no FLASER scans"):
+    with pytest.raises(ScanFormatError, match="no FLASER, ROBOTLASER1 or RAWLASER1 scans"):
         read_carmen(p)
     with pytest.raises(ScanFormatError, match="no such file"):
         read_scans(tmp_path / "missing.log")

@@ -90,6 +90,9 @@ def run(args: argparse.Namespace) -> int:
     if bag and Path(bag).is_dir():  # a bag is a folder: a bag there already is replaced whole
         if not (Path(bag) / "metadata.yaml").is_file():
             raise MapFileError(bag, "is a folder but not a ROS 2 bag (no metadata.yaml): not replaced")
+        if Path(args.map).resolve().is_relative_to(Path(bag).resolve()):
+            raise MapFileError(bag, f"cannot write: the bag folder holds the input {args.map}, which replacing the "
+                                    f"bag would delete; give another name")
         bag = None
     check_outputs(args.geojson, args.svg, args.compact, bag, args.mcap, *ros, *nav2, inputs=(args.map,))
     t0 = time.perf_counter()

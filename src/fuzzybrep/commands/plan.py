@@ -38,8 +38,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.plot:
+        from ..formats.files import check_outputs
         from ..plot import check_figure_path
 
+        check_outputs(args.plot, inputs=(args.map,))  # not the map read, whatever its name
         check_figure_path(args.plot)  # before the planning, not after it
     fuzzy = load_map(args)
     pl = planner(fuzzy, args.alpha, args.radius, args.method)

@@ -7,8 +7,8 @@ from __future__ import annotations
 import glob
 import json
 import os
-import stat
 import re
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -37,6 +37,11 @@ def check_writable(path: str | os.PathLike) -> None:
     path = Path(path)
     if path.is_dir():
         raise MapFileError(path, "cannot write: it is a folder (give a file name)")
+    kind = _not_a_file(path)
+    if kind:
+        raise MapFileError(path, f"cannot write: it is {kind}, not a regular file, and writing would replace it "
+                                 f"(give a file name)")
+    path = _target(path)
     folder = path.parent
     while not folder.exists() and folder != folder.parent:  # write_atomic creates the missing ones
         folder = folder.parent
@@ -52,23 +57,40 @@ def check_outputs(*paths: str | os.PathLike | None, inputs: tuple) -> None:
 
     An output that is one of ``inputs``, or that is given twice, is refused as well: a slip of the
     keyboard (``build run.log --out run.log``) must not replace the log being read by the map, nor
-    one output by another. ``inputs`` has no default, so that no caller forgets it (``tables
+    one output by another. An input folder (a ROS 2 bag) stands for every file in it: an output
+    that is a file inside it (``build BAG --out BAG/metadata.yaml``), or a hard link to a file
+    directly in it, is refused; one of a bag's files given as the input (``BAG/metadata.yaml``,
+    ``BAG/BAG_0.db3``) stands for its folder, since the whole bag is read. A new name inside an
+    input folder replaces nothing and is written. ``inputs`` has no default, so that no caller forgets it (``tables
     --csv DIR`` did, and replaced a map named DIR/vertices_principal.csv). Linear in the number of paths (``tables --csv`` checks one per ring:
     pairwise, 6000 tables took ten minutes)."""
     given = [p for p in paths if p is not None]
     for p in given:
         check_writable(p)  # as given: a trailing slash says a folder was meant
-    names: dict = {}  # every identity of a file seen so far -> the path given for it
+    # every identity of a file seen so far -> ("input", path), ("folder", path, folder), ("output", path)
+    names: dict = {}
+    folders: list[tuple[Path, str | os.PathLike]] = []  # input folders, resolved, and the input given
     for q in inputs:
         if q is not None:
             for key in _identities(q):
                 names.setdefault(key, ("input", q))
+            folder = _input_folder(q)
+            if folder is not None:
+                folders.append((folder, q))
+                for key in _folder_identities(folder):
+                    names.setdefault(key, ("folder", q, folder))
     for p in map(Path, given):
         keys = _identities(p)
         seen = next((names[k] for k in keys if k in names), None)
+        if seen is None and p.exists():  # a file deeper in an input folder, by its path
+            seen = next((("folder", q, f) for f, q in folders for k in keys
+                         if k[0] == "path" and k[1].is_relative_to(f)), None)
         if seen is not None and seen[0] == "input":
             raise MapFileError(p, f"cannot write: it is the input {seen[1]} as well, which writing would replace; "
                                   f"give another name")
+        if seen is not None and seen[0] == "folder":
+            raise MapFileError(p, f"cannot write: it is a file of the input {seen[1]} (the folder {seen[2]}), which "
+                                  f"writing would replace; give another name")
         if seen is not None:
             raise MapFileError(p, "cannot write: it is given for two outputs, and the second would replace the first")
         for k in keys:
@@ -90,6 +112,75 @@ def _identities(path: str | os.PathLike) -> list:
         return []
 
 
+#: the most entries of an input folder whose files are compared with the outputs by inode (a ROS 2
+#: bag holds a few); beyond, a file in it is still found by its path
+MAX_FOLDER_ENTRIES = 10000
+#: what a ROS 2 bag folder holds that names the folder: scans.rosbag reads the whole bag for any
+_BAG_FILES = (".db3", ".mcap")
+
+
+def _input_folder(path: str | os.PathLike) -> Path | None:
+    """The folder an input stands for, resolved: itself if a folder, a ROS 2 bag's folder for one
+    of its files (``metadata.yaml`` beside it); None otherwise."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            return path.resolve()
+        if (path.suffix in _BAG_FILES or path.name == "metadata.yaml") and (path.parent / "metadata.yaml").is_file():
+            return path.parent.resolve()
+    except (OSError, RuntimeError):
+        pass
+    return None
+
+
+def _folder_identities(folder: Path) -> list:
+    """The device and inode of each file directly in a folder (the first MAX_FOLDER_ENTRIES)."""
+    keys = []
+    try:
+        with os.scandir(folder) as it:
+            for k, entry in enumerate(it):
+                if k >= MAX_FOLDER_ENTRIES:
+                    break
+                try:
+                    st = entry.stat()
+                except OSError:
+                    continue
+                if stat.S_ISREG(st.st_mode):
+                    keys.append(("inode", st.st_dev, st.st_ino))
+    except OSError:
+        pass
+    return keys
+
+
+_KINDS = ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a folder"))
+
+
+def _not_a_file(path: Path) -> str | None:
+    """What an existing output path is when it is no regular file (through symbolic links): a
+    device, a FIFO, a socket, a folder; None for a regular file or a new name. Renaming over such
+    a path would replace it (as root, ``--out /dev/null`` replaced the system's /dev/null)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def _target(path: Path) -> Path:
+    """Where writing ``path`` goes: the file a symbolic link points to (through every link, made
+    absolute), created if the link dangles, so that the link stays a link; ``path`` itself if it
+    is none. MapFileError for a loop of links."""
+    if not path.is_symlink():
+        return path
+    target = Path(os.path.realpath(path))
+    if target.is_symlink():  # realpath stops where the links go round in a loop
+        raise MapFileError(path, "cannot write: it is a symbolic link in a loop of links")
+    return target
+
+
 def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     """Write bytes so that the file is either the old one or the complete new one, never half.
 
@@ -97,9 +188,14 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
     it. A file being replaced keeps its permissions (a private 0600 map stayed private; it was
     reset to 0644); a new one gets those of ``open(path, "w")``. A writer killed before the rename
     leaves its temporary file behind: the next write of the same name removes every one whose
-    writer (PID) is no longer running on this machine (``_remove_stale``)."""
+    writer (PID) is no longer running on this machine (``_remove_stale``).
+
+    An output that exists and is no regular file (a device such as /dev/null, a FIFO, a folder) is
+    refused: MapFileError. A symbolic link is written through: its target is replaced atomically
+    (a dangling link's target is created) and the link stays."""
     path = Path(path)
     check_writable(path)
+    path = _target(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         _remove_stale(path)

@@ -1,4 +1,5 @@
-"""CARMEN logs: ``FLASER`` (front laser) messages, plain or gzip-compressed.
+"""CARMEN logs: ``FLASER``, ``ROBOTLASER1`` and ``RAWLASER1`` scans and ``ODOM`` odometry, plain or
+gzip-compressed (one message a line; ``scans.carmen_lines`` parses each).
 
     FLASER n r_1 ... r_n  x y theta  odom_x odom_y odom_theta  timestamp host logger_timestamp
 
@@ -6,11 +7,44 @@ Ranges in metres; the n beams spread evenly from -90° to +90° relative to the 
 ``theta``, both ends included; ``x y theta`` is the laser pose (``Scan.pose``) and ``odom_x odom_y
 odom_theta`` the robot's pose by dead reckoning (``Scan.odometry``). In the shared SLAM-corrected
 logs both are the corrected pose; in a log ``fuzzybrep drift`` wrote (``write_carmen``) the first
-is the true pose and the second the drifting odometry. Other message types (``ODOM``,
-``PARAM``, ``NEFF``, comments) carry no scan and are skipped. A range at or above the sensor's
-maximum means "no return". CARMEN logs do not record that maximum, so by default it is taken as
-the largest range in the log (81.83 m in the Intel log, 50 m in ACES): pass ``max_range`` when the
-log has no no-return beams.
+is the true pose and the second the drifting odometry.
+
+    ROBOTLASER1 laser_type start_angle field_of_view angular_resolution maximum_range accuracy
+        remission_mode num_readings r_1 ... r_n num_remissions m_1 ... m_k laser_pose_x laser_pose_y
+        laser_pose_theta robot_pose_x robot_pose_y robot_pose_theta laser_tv laser_rv
+        forward_safety_dist side_safety_dist turn_axis timestamp hostname logger_timestamp
+
+Newer CARMEN's laser message with its pose: the beams lie at ``start_angle + i·angular_resolution``
+(spread evenly over ``field_of_view`` when the steps make it, see ``carmen_lines``), a range at or
+above ``maximum_range`` is no return, and ``Scan.pose`` is the laser pose. CARMEN's robot module
+writes both poses from odometry (interpolated at the laser's time), the laser pose being the robot
+pose moved by the laser's offset on the robot; a corrected log (a SLAM tool's output) has both
+corrected. So ``Scan.odometry`` is the laser pose too: the sensor's pose by dead reckoning, in
+the sensor's frame as ``Scan.pose`` is (the robot pose would add the offset's lever arm to every
+turn). Remissions are read past.
+
+    RAWLASER1 (the same fields up to the remissions) timestamp hostname logger_timestamp
+    ODOM x y theta tv rv accel timestamp hostname logger_timestamp
+
+A RAWLASER1 scan has no pose of its own: it is placed at the odometry, the ODOM stream
+interpolated at the scan's timestamp (x and y linearly, theta unwrapped), held at the stream's
+first or last pose for a scan at most ODOM_GAP seconds outside it. CARMEN records the laser's
+offset on the robot only in PARAM lines, which are not read: such a scan's pose is the robot's.
+FLASER and ROBOTLASER1 always carry their odometry, so ODOM lines are read only for RAWLASER1
+scans (and a damaged ODOM line is an error only then).
+
+One message type gives the scans, since a logger writes each scan under several (newer CARMEN
+writes RAWLASER1 and ROBOTLASER1 of every scan; converters add FLASER): of FLASER and ROBOTLASER1,
+the one with more scans (the complete stream, where a logger wrote the other for part of the run
+only), ROBOTLASER1 if as many (it records its own beam geometry and maximum range, which FLASER
+leaves to convention); RAWLASER1 only when neither is there. ``ReadReport.notes`` says which was
+chosen. Other message types (``PARAM``, ``NEFF``, ``ROBOTLASER2``, comments) carry no scan of the
+front laser and are passed over.
+
+CARMEN's FLASER does not record the laser's maximum, so by default it is taken as the largest
+range in the log (81.83 m in the Intel log, 50 m in ACES): pass ``max_range`` when the log has no
+no-return beams (``max_range`` also overrides ROBOTLASER1's and RAWLASER1's ``maximum_range``; a
+``maximum_range`` of 0 or less means not recorded, and the largest range is taken for it too).
 """
 
 from __future__ import annotations
@@ -19,67 +53,114 @@ import gzip
 import io
 import os
 import re
+from array import array
 from pathlib import Path
 
 import numpy as np
 
-from ..arrays import is_float
 from ..errors import ScanFormatError
 from ..formats.files import write_atomic
+from .carmen_lines import parse_flaser, parse_laser1, parse_odom
 from .report import BadLine, DamagedStream, ReadReport, matching_lines
 from .scan import Scan, even_bearings
 
-SCAN_MESSAGES = ("FLASER",)
+SCAN_MESSAGES = ("FLASER", "ROBOTLASER1", "RAWLASER1")
+#: how far (seconds) a RAWLASER1 scan may lie before the first or after the last ODOM message and
+#: still be placed (at that message's pose): a logger starts its streams a few messages apart
+ODOM_GAP = 1.0
+
+#: a line of a scan message or of ODOM: its name, then whitespace or the end of the line
+_SCAN_LINE = re.compile(rb"(?m)^(?:" + b"|".join(re.escape(m.encode()) for m in (*SCAN_MESSAGES, "ODOM"))
+                        + rb")(?![^\s])[^\n]*")
 
 
-#: a line of a scan message: its name, then whitespace or the end of the line
-_SCAN_LINE = re.compile(rb"(?m)^(?:" + b"|".join(re.escape(m.encode()) for m in SCAN_MESSAGES) + rb")(?![^\s])[^\n]*")
+class _Lines:
+    """What a pass over a log found: the scans of each message type, as (ranges, bearings or None,
+    maximum_range or None, pose or None, odometry or None, timestamp, line), and the ODOM stream.
+    Once a scan with a pose (FLASER, ROBOTLASER1) is met, RAWLASER1 scans and ODOM lines can no
+    longer be chosen: they are counted, not kept, so that memory does not grow with them."""
 
+    def __init__(self):
+        self.rows: dict[str, list] = {k: [] for k in SCAN_MESSAGES}
+        self.count = dict.fromkeys(SCAN_MESSAGES, 0)
+        self.bad = dict.fromkeys(SCAN_MESSAGES, 0)
+        self.odom = array("d")  # x, y, theta, timestamp of each ODOM line
+        self.odom_errors: list[ScanFormatError] = []  # the first 20 (judged only if the scans need ODOM)
+        self.odom_bad = 0
 
-def _parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """(ranges, pose, odometry, timestamp) of one FLASER line; raises BadLine naming the field."""
-    try:
-        n = int(parts[1])
-    except (IndexError, ValueError):
-        raise BadLine("n", f"beam count {parts[1] if len(parts) > 1 else ''!r} is not an integer") from None
-    if n <= 0:
-        raise BadLine("n", f"beam count {n} must be positive")
-    need = 2 + n + 7
-    if len(parts) < need:
-        raise BadLine(None, f"truncated: {len(parts)} fields, a FLASER line with {n} beams needs at least {need}")
-    # the ranges are not delimited: only the field count (7 numbers after them, then host and
-    # logger timestamp, which old logs lack) shows a beam count that disagrees with the ranges,
-    # which would otherwise shift ranges into the pose or the pose into the ranges
-    if len(parts) == need + 1 and not is_float(parts[need]):
-        # the host is there but not the logger timestamp after it: a line cut short (the last
-        # line of a log that was still being written), not a wrong beam count
-        raise BadLine(None, f"truncated: {len(parts)} fields, ending at the host {parts[need]!r}; a FLASER line "
-                            f"with {n} beams has {need + 2}, the logger timestamp last")
-    if len(parts) not in (need, need + 2):
-        raise BadLine("n", f"beam count {n} does not match the line's {len(parts)} fields (a FLASER line with {n} "
-                           f"beams has {need + 2}, or {need} without host and logger timestamp)")
-    if len(parts) == need + 2 and is_float(parts[need]):
-        raise BadLine("n", f"beam count {n} does not match the line: where the host should follow {n} ranges, the "
-                           f"pose and the timestamp, there is the number {parts[need]!r}")
-    try:
-        r = np.array(parts[2 : 2 + n], dtype=np.float64)
-    except ValueError:
-        bad = next(i for i, t in enumerate(parts[2 : 2 + n]) if not is_float(t))
-        raise BadLine(f"r_{bad + 1}", f"range {parts[2 + bad]!r} is not a number") from None
-    bad = ~np.isfinite(r) | (r < 0)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise BadLine(f"r_{i + 1}", f"range {parts[2 + i]!r} is {'negative' if r[i] < 0 else 'not finite'}", True)
-    names = ("x", "y", "theta", "odom_x", "odom_y", "odom_theta", "timestamp")
-    vals = []
-    for name, tok in zip(names, parts[2 + n :]):
-        if not is_float(tok):
-            raise BadLine(name, f"{tok!r} is not a number")
-        v = float(tok)
-        if not np.isfinite(v):
-            raise BadLine(name, f"{tok!r} is not finite", True)
-        vals.append(v)
-    return r, np.array(vals[:3]), np.array(vals[3:6]), vals[6]
+    def read(self, path: Path, skip_bad: bool, report: ReadReport) -> None:
+        # streamed, with a bounded line length (report.matching_lines); other messages are passed over unread
+        for lineno, line in matching_lines(path, _SCAN_LINE):
+            parts = line.decode("utf-8", errors="replace").split()
+            kind = parts[0]
+            posed = self.count["FLASER"] or self.count["ROBOTLASER1"]
+            if kind == "ODOM" and posed:
+                continue
+            try:
+                if kind == "ODOM":
+                    self.odom.extend(parse_odom(parts))
+                    continue
+                if kind == "FLASER":
+                    r, pose, odom, t = parse_flaser(parts)
+                    row = (r, None, None, pose, odom, t, lineno)
+                else:
+                    r, b, top, pose, t = parse_laser1(parts)
+                    row = (r, b, top, pose, pose, t, lineno)
+                self.count[kind] += 1
+                if kind != "RAWLASER1":
+                    self.rows[kind].append(row)
+                    self.rows["RAWLASER1"].clear()
+                    self.odom = array("d")
+                elif not posed:
+                    self.rows[kind].append(row)
+            except BadLine as e:
+                err = e.error(path, lineno)
+                if kind == "ODOM":
+                    self.odom_bad += 1
+                    if len(self.odom_errors) < 20:
+                        self.odom_errors.append(err)
+                    continue
+                if not skip_bad:
+                    raise err from None
+                report.skip(err)
+                self.bad[kind] += 1
+
+    def choose(self) -> str | None:
+        """The message type whose scans are read (the module's docstring says why), None if none."""
+        posed = [k for k in ("ROBOTLASER1", "FLASER") if self.rows[k]]
+        if posed:
+            return max(posed, key=lambda k: self.count[k])  # the first of equals: ROBOTLASER1
+        return "RAWLASER1" if self.rows["RAWLASER1"] else None
+
+    def place(self, path: Path, skip_bad: bool, report: ReadReport) -> list:
+        """The RAWLASER1 rows with their pose and odometry: the ODOM stream at their timestamps."""
+        if self.odom_bad:
+            if not skip_bad:
+                raise self.odom_errors[0]
+            for err in self.odom_errors:
+                report.skip(err)
+            report.skipped += self.odom_bad - len(self.odom_errors)
+        if not self.odom:
+            raise ScanFormatError(path, None, f"the {len(self.rows['RAWLASER1'])} RAWLASER1 scans carry no pose, and "
+                                              f"the log has no {'usable ' if self.odom_bad else ''}ODOM line to place "
+                                              f"them by (FLASER and ROBOTLASER1 lines carry theirs)")
+        o = np.frombuffer(self.odom, dtype=np.float64).reshape(-1, 4)
+        o = o[np.argsort(o[:, 3], kind="stable")]
+        t, theta = o[:, 3], np.unwrap(o[:, 2])
+        rows = []
+        for r, b, top, _, _, ts, lineno in self.rows["RAWLASER1"]:
+            if not t[0] - ODOM_GAP <= ts <= t[-1] + ODOM_GAP:
+                side = f"{t[0] - ts:.6g} s before the first" if ts < t[0] else f"{ts - t[-1]:.6g} s after the last"
+                err = ScanFormatError(path, lineno, f"{ts!r} is {side} ODOM message: no odometry to place the "
+                                                    f"scan by (at most {ODOM_GAP:g} s outside the stream)", "timestamp")
+                if not skip_bad:
+                    raise err
+                report.skip(err)
+                continue
+            th = float(np.interp(ts, t, theta))
+            pose = np.array([np.interp(ts, t, o[:, 0]), np.interp(ts, t, o[:, 1]), np.arctan2(np.sin(th), np.cos(th))])
+            rows.append((r, b, top, pose, pose, ts, lineno))
+        return rows
 
 
 def read_carmen(
@@ -88,7 +169,8 @@ def read_carmen(
     skip_bad: bool = False,
     report: ReadReport | None = None,
 ) -> list[Scan]:
-    """All FLASER scans of a CARMEN log, in file order.
+    """The scans of a CARMEN log (FLASER, ROBOTLASER1 or RAWLASER1 placed by ODOM: see the module's
+    docstring), in file order.
 
     Malformed, truncated or impossible lines (NaN or negative ranges) raise ScanFormatError naming
     the file, line and field; with ``skip_bad`` they are skipped instead and counted in ``report``.
@@ -96,40 +178,44 @@ def read_carmen(
     path = Path(path)
     report = report if report is not None else ReadReport()
     skipped, errors = report.skipped, len(report.errors)  # a report may come with earlier reads in it
-    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, float, int]] = []
+    found = _Lines()
     try:
-        # streamed, with a bounded line length (report.matching_lines); other messages are passed over unread
-        for lineno, line in matching_lines(path, _SCAN_LINE):
-            try:
-                r, pose, odom, t = _parse_flaser(line.decode("utf-8", errors="replace").split())
-            except BadLine as e:
-                err = e.error(path, lineno)
-                if not skip_bad:
-                    raise err from None
-                report.skip(err)
-                continue
-            rows.append((r, pose, odom, t, lineno))
+        found.read(path, skip_bad, report)
     except DamagedStream as err:
         # a cut-off gzip stream, or a damaged block in it: everything before the damage is kept
         # only if the caller asked to skip
         if not skip_bad:
             raise
         report.skip(err)
+    kind = found.choose()
+    rows = [] if kind is None else found.place(path, skip_bad, report) if kind == "RAWLASER1" else found.rows[kind]
     if not rows:
-        if report.skipped > skipped:  # every FLASER line was skipped as bad: "none in this file" would mislead
+        if report.skipped > skipped:  # every scan line was skipped as bad: "none in this file" would mislead
             first = f" (first: {report.errors[errors].args[0]})" if len(report.errors) > errors else ""
-            raise ScanFormatError(path, None, f"no usable FLASER scans: all {report.skipped - skipped} were skipped "
+            kinds = (" or ".join(k for k in SCAN_MESSAGES if found.bad[k] or k == kind)
+                     or "FLASER, ROBOTLASER1 or RAWLASER1")
+            raise ScanFormatError(path, None, f"no usable {kinds} scans: all {report.skipped - skipped} were skipped "
                                               f"as bad{first}")
-        raise ScanFormatError(path, None, "no FLASER scans in this file")
-    if max_range is None:
-        max_range = max(float(r.max()) for r, *_ in rows)
+        raise ScanFormatError(path, None, "no FLASER, ROBOTLASER1 or RAWLASER1 scans in this file")
+    others = [f"{found.count[k]} {k}" for k in SCAN_MESSAGES if k != kind and found.count[k]]
+    if others:
+        report.notes.append(f"read the {found.count[kind]} {kind} scans, not the {' and '.join(others)} ones "
+                            f"(one message type per log: of FLASER and ROBOTLASER1 the one with more scans)")
+    largest = max(float(r.max()) for r, *_ in rows)
+    if max_range is None and kind != "FLASER" and any(top <= 0 for _, _, top, *_ in rows):
+        report.notes.append(f"{kind} lines with no maximum_range (0): the log's largest range, {largest:g}, is "
+                            f"taken for it")
     scans = []
-    bearings: dict[int, np.ndarray] = {}
-    for r, pose, odom, t, lineno in rows:
-        b = bearings.setdefault(len(r), even_bearings(len(r)))
-        scans.append(Scan(r, b, pose, t, max_range, f"{path.name}:{lineno}", odom))
+    bearings: dict[int | bytes, np.ndarray] = {}
+    for r, b, top, pose, odom, t, lineno in rows:
+        if b is None:
+            b = bearings.setdefault(len(r), even_bearings(len(r)))
+        else:  # one array for every scan of the same geometry
+            b = bearings.setdefault(b.tobytes(), b)
+        mr = max_range if max_range is not None else top if top is not None and top > 0 else largest
+        scans.append(Scan(r, b, pose, t, mr, f"{path.name}:{lineno}", odom))
     report.scans = len(scans)
-    report.max_range = max_range
+    report.max_range = max_range if max_range is not None else max(s.max_range for s in scans)
     return scans
 
 
