@@ -60,6 +60,7 @@ PAGES = {
     "viewer.md": ("viewer:intel",),
     "localise.md": ("localise:results",),
     "align.md": ("align:results",),
+    "slam.md": ("slam:results",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -316,10 +317,19 @@ def align_blocks(ctx: Context) -> dict[str, str]:
     return {"align:results": stamp(True) + "\n\n" + md}
 
 
+def slam_blocks(ctx: Context) -> dict[str, str]:
+    """docs/slam.md: ``build --align`` on the raw logs and the ACES bag, scored on the benchmark's
+    relations (benchmarks/slam.py), the maps' pictures in out/slam/."""
+    import slam
+
+    return {"slam:results": stamp(True) + "\n\n" + slam.run(ctx.d, plots=HERE.parent / "out" / "slam")}
+
+
 MAKERS = {"grid.md": grid_blocks, "fuzzy.md": fuzzy_blocks, "demo.md": demo_blocks,
           "simulator.md": simulator_blocks, "export.md": export_blocks, "viewer.md": viewer_blocks,
-          "localise.md": localise_blocks, "align.md": align_blocks}
-NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md", "align.md"}
+          "localise.md": localise_blocks, "align.md": align_blocks,
+          "slam.md": slam_blocks}
+NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md", "align.md", "slam.md"}
 
 
 def run(docs: Path, repeat: int = 3, maps: dict | None = None, only: list[str] | None = None,

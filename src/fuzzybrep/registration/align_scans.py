@@ -124,15 +124,82 @@ Progress = Callable[[int, int], None]
 def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odometry: np.ndarray | None = None,
                 progress: Progress | None = None) -> AlignResult:
     """Aligned sensor poses (S, 3) of ``scans`` from their odometry (``odometry_of`` unless
-    given): module docstring."""
+    given): module docstring.
+
+    Cost follows the distance driven, not the scan rate: only the scans the odometry says the
+    robot moved ``motion_distance`` or turned ``motion_turn`` to reach since the last one aligned
+    (and at least every ``motion_every``-th, so that odometry that stopped is still followed)
+    are aligned (``_moving``); a scan between two of them is placed by its odometry from the one
+    before, the two's correction shared out in proportion (``_fill``)."""
     cfg = config
     odo = odometry_of(scans) if odometry is None else np.asarray(odometry, np.float64).reshape(-1, 3)
     n = len(scans)
     if len(odo) != n:
         raise ValueError(f"{n} scans but {len(odo)} odometry poses")
-    poses = np.zeros((n, 3))
     if n == 0:
-        return AlignResult(poses, ScanQuality(np.zeros(0), np.zeros(0), np.zeros(0, np.int64)), 0, 0, cfg)
+        return AlignResult(np.zeros((0, 3)), ScanQuality(np.zeros(0), np.zeros(0), np.zeros(0, np.int64)), 0, 0, cfg)
+    moving = _moving(odo, cfg)
+    if len(moving) == n:
+        result = _align(scans, cfg, odo, progress)
+    else:
+        def sub_progress(done, total):
+            progress(int(moving[min(done, len(moving)) - 1]) + 1, n)
+
+        result = _align([scans[i] for i in moving], cfg, odo[moving], sub_progress if progress else None)
+        before = np.searchsorted(moving, np.arange(n), side="right") - 1
+        q = result.quality
+        result.quality = ScanQuality(q.inliers[before], q.sigma[before], q.matches[before])
+        result.poses = _fill(odo, moving, result.poses)
+        if progress:
+            progress(n, n)
+    result.check = check_alignment(scans, result.poses) if cfg.check else None
+    return result
+
+
+def _moving(odo: np.ndarray, cfg: AlignConfig) -> np.ndarray:
+    """Indices of the scans to align: the first, and each one the odometry has moved
+    ``motion_distance`` or turned ``motion_turn`` from the last one chosen, or ``motion_every``
+    scans after it (in order; a loop over scans, but one comparison each)."""
+    n = len(odo)
+    if cfg.motion_distance <= 0 and cfg.motion_turn <= 0:
+        return np.arange(n)
+    out = [0]
+    lx, ly, lt = odo[0]
+    d2, turn, every = cfg.motion_distance ** 2, cfg.motion_turn, max(cfg.motion_every, 1)
+    for k in range(1, n):
+        x, y, t = odo[k]
+        if ((x - lx) ** 2 + (y - ly) ** 2 >= d2 or abs((t - lt + math.pi) % (2 * math.pi) - math.pi) >= turn
+                or k - out[-1] >= every):
+            out.append(k)
+            lx, ly, lt = x, y, t
+    return np.asarray(out, np.int64)
+
+
+def _fill(odo: np.ndarray, moving: np.ndarray, aligned: np.ndarray) -> np.ndarray:
+    """Every scan's pose from the aligned ones (``moving``): scan k after aligned scan a (and before
+    b) is at a ⊕ (its odometry from a + t × the correction the alignment made to a → b), t its
+    share of the scans from a to b; after the last aligned scan, its odometry from it."""
+    n = len(odo)
+    poses = np.empty((n, 3))
+    poses[moving] = aligned
+    a_i = np.searchsorted(moving, np.arange(n), side="right") - 1
+    a = moving[a_i]
+    b = moving[np.minimum(a_i + 1, len(moving) - 1)]
+    rest = np.setdiff1d(np.arange(n), moving)
+    if not len(rest):
+        return poses
+    ar, br = a[rest], b[rest]
+    corr = relative(poses[ar], poses[br]) - relative(odo[ar], odo[br])
+    corr[:, 2] = wrap(corr[:, 2])
+    t = np.where(br > ar, (rest - ar) / np.maximum(br - ar, 1), 0.0)
+    poses[rest] = compose(poses[ar], relative(odo[ar], odo[rest]) + t[:, None] * corr)
+    return poses
+
+
+def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: Progress | None) -> AlignResult:
+    """``align_scans`` on scans that are all aligned (module docstring)."""
+    n = len(scans)
+    poses = np.zeros((n, 3))
     surf = _Surfaces(scans, cfg)
     steps = relative(odo[:-1], odo[1:])
     inliers, sigma, matches = np.ones(n), np.zeros(n), np.zeros(n, np.int64)
@@ -235,9 +302,8 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
         loops += added  # the local edges tie a scan to its own stretch: not loops
         poses = pose_graph.solve(poses, *(np.array(e) for e in edges))
         optimisations += 1
-    checked = check_alignment(scans, poses) if cfg.check else None
     return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
-                       calibration if cfg.calibrate else None, checked)
+                       calibration if cfg.calibrate else None)
 
 
 def _direction(recent: list, cfg: AlignConfig) -> bool | None:

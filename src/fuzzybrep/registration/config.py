@@ -41,6 +41,11 @@ class OdometryNoise:
 class AlignConfig:
     """Knobs of ``align_scans`` (metres and radians; module docstring)."""
 
+    #: only scans the odometry moved motion_distance or turned motion_turn to reach since the last
+    #: one aligned are aligned, and at least every motion_every-th (``align_scans``); 0 and 0: every scan
+    motion_distance: float = 0.1
+    motion_turn: float = math.radians(2.0)
+    motion_every: int = 10
     window: int = 16  #: key scans in the local map
     key_distance: float = 0.5
     key_turn: float = math.radians(10.0)
