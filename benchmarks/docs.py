@@ -21,6 +21,7 @@ export.md     export:yaml, export:free-area   ``export --ros`` of the Intel map
               export:classes, export:nav2     ``raster_classes.py``: free/occupied/unknown against the
                                               grid, and the raster's areas against the map's, every log
 viewer.md     viewer:intel              the page's α-cut construction against alpha_cut on the Intel map
+pose_graph.md pose_graph:results        ``pose_graph.py``: false loop closures each pose-graph back end survives
 
 Speed is given as ratios against a baseline timed in the same run; absolute seconds only where a
 block says they are the measuring machine's.
@@ -61,6 +62,7 @@ PAGES = {
     "localise.md": ("localise:results",),
     "align.md": ("align:results",),
     "slam.md": ("slam:results",),
+    "pose_graph.md": ("pose_graph:results",),
 }
 #: every (page, block) this script writes; tests/test_docblocks.py checks the pages hold exactly these
 BLOCKS = [(page, name) for page, names in PAGES.items() for name in names]
@@ -325,11 +327,19 @@ def slam_blocks(ctx: Context) -> dict[str, str]:
     return {"slam:results": stamp(True) + "\n\n" + slam.run(ctx.d, plots=HERE.parent / "out" / "slam")}
 
 
+def pose_graph_blocks(ctx: Context) -> dict[str, str]:
+    """docs/pose_graph.md: the pose-graph back ends against false loop closures (benchmarks/pose_graph.py)."""
+    import pose_graph
+
+    md, _ = pose_graph.run(ctx.d, ctx.repeat)
+    return {"pose_graph:results": stamp(True) + "\n\n" + md}
+
+
 MAKERS = {"grid.md": grid_blocks, "fuzzy.md": fuzzy_blocks, "demo.md": demo_blocks,
           "simulator.md": simulator_blocks, "export.md": export_blocks, "viewer.md": viewer_blocks,
           "localise.md": localise_blocks, "align.md": align_blocks,
-          "slam.md": slam_blocks}
-NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md", "align.md", "slam.md"}
+          "slam.md": slam_blocks, "pose_graph.md": pose_graph_blocks}
+NEEDS_LOGS = {"grid.md", "fuzzy.md", "export.md", "viewer.md", "localise.md", "align.md", "slam.md", "pose_graph.md"}
 
 
 def run(docs: Path, repeat: int = 3, maps: dict | None = None, only: list[str] | None = None,
