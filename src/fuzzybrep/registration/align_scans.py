@@ -228,13 +228,15 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
         window = tuple(keys[-cfg.window:])
         if window != index_keys:
             index, index_keys = surf.index(window, poses), window
-            field_ = LikelihoodField(index.samples, cfg.search_resolution, cfg.search_sigma) if cfg.search_sigmas else None
+            field_ = None  # made when a scan first needs the search (most never do)
         if len(index) and len(pts) >= 4:
             res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
                         max_iterations=cfg.iterations)
-            if field_ is not None and res.inlier_share < cfg.search_below:
+            if cfg.search_sigmas and res.inlier_share < cfg.search_below:
                 # the odometry's guess was not good enough a start: search its window, refine from
                 # the best pose found, keep whichever explains more of the scan
+                if field_ is None:
+                    field_ = LikelihoodField(index.samples, cfg.search_resolution, cfg.search_sigma)
                 start = _search(field_, pts, guess, prior_info, cfg)
                 alt = align(pts, index, start, width=cfg.width, start_width=cfg.start_width, prior=(start, prior_info),
                             max_iterations=cfg.iterations)
