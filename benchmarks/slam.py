@@ -30,6 +30,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 from fuzzybrep.registration.align_scans import odometry_of  # noqa: E402
+from fuzzybrep.registration.check import CheckConfig  # noqa: E402
 from fuzzybrep.registration.relations import read_relations, score  # noqa: E402
 from fuzzybrep.scans.read import read_scans  # noqa: E402
 from grid import datasets  # noqa: E402
@@ -102,8 +103,10 @@ def markdown(rows: list[dict]) -> str:
         out[-1] += (f"| {verdict} | {r['t_align']:.1f} s / {r['t_plain']:.1f} s | {r['t_align'] / r['t_plain']:.2f}× "
                     f"| {r['scans'] / r['t_align']:.0f} |")
     out.append("")
+    c = CheckConfig()
     out.append("Check: the aligned poses against the scans (`registration.check`): the share of the scans where the robot "
-               "came back that put over 15 % of their returns in space another pass saw free; over 6 % fails.")
+               f"came back that put over {100 * c.share:.0f} % of their returns in space another pass saw free; over "
+               f"{100 * c.fail_share:.0f} % fails.")
     return "\n".join(out)
 
 
