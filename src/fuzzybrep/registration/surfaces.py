@@ -35,6 +35,26 @@ def surface_segments(points: np.ndarray, joinable: np.ndarray, beam_step: float,
     return a[keep], b[keep]
 
 
+class _Lazy:
+    """A read-only sequence whose item k is ``make(k)``, made on first access and kept."""
+
+    def __init__(self, make, n: int):
+        self._make, self._n, self._made = make, n, {}
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, k: int):
+        if k < 0:
+            k += self._n
+        if not 0 <= k < self._n:
+            raise IndexError(k)
+        got = self._made.get(k)
+        if got is None:
+            got = self._made[k] = self._make(k)
+        return got
+
+
 class _Surfaces:
     """Every scan's surface segments in its own frame, made once, placed at a pose on demand.
 
@@ -44,16 +64,22 @@ class _Surfaces:
     pose graph moved it) is placed again; an index is made of the pieces as they are."""
 
     def __init__(self, scans: Sequence[Scan], cfg: AlignConfig):
-        self.points, self.segments = [], []
+        self.points, self._joinable, self._steps = [], [], []
         for s in scans:
             p, j = scan_points(s, cfg.max_range)
-            step = float(np.median(np.diff(s.bearings))) if len(s.bearings) > 1 else 0.0
             self.points.append(p)
-            sa, sb = surface_segments(p, j, step, cfg.join)
-            self.segments.append((sa, sb, *sample_segments(sa, sb, cfg.spacing)))
-        self.spacing = cfg.spacing
+            self._joinable.append(j)
+            self._steps.append(float(np.median(np.diff(s.bearings))) if len(s.bearings) > 1 else 0.0)
+        self.join, self.spacing = cfg.join, cfg.spacing
+        # a scan's surfaces are made when it is first placed: only key scans are (one in ten at a
+        # laser's full rate), and making every scan's was a tenth of the alignment's time on aces
+        self.segments = _Lazy(self._segments_of, len(self.points))
         self._placed: dict[int, tuple] = {}
         self._kept: dict[str, tuple] = {}
+
+    def _segments_of(self, k: int) -> tuple:
+        sa, sb = surface_segments(self.points[k], self._joinable[k], self._steps[k], self.join)
+        return (sa, sb, *sample_segments(sa, sb, self.spacing))
 
     def placed(self, k: int, pose: np.ndarray) -> tuple:
         """Scan k's (a, b, direction, length, samples, samples_of) at ``pose``, world frame."""
