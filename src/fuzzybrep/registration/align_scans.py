@@ -240,7 +240,7 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
                 start = _search(field_, pts, guess, prior_info, cfg)
                 alt = align(pts, index, start, width=cfg.width, start_width=cfg.start_width, prior=(start, prior_info),
                             max_iterations=cfg.iterations)
-                if alt.inlier_share > res.inlier_share:
+                if alt.inlier_share > res.inlier_share + cfg.search_gain:
                     res = alt
             poses[k] = res.pose
             inliers[k], sigma[k], matches[k] = res.inlier_share, _sigma(res.covariance), res.matches

@@ -53,6 +53,9 @@ class AlignConfig:
     key_distance: float = 0.5
     key_turn: float = math.radians(10.0)
     max_range: float = 15.0  #: returns farther than this are not aligned nor mapped (too sparse)
+    #: ... unless fewer than sparse_share of a scan's beams return within it: then far_range
+    sparse_share: float = 0.5
+    far_range: float = 30.0
     max_points: int = 100  #: returns aligned per scan, evenly subsampled
     join: float = 0.05  #: consecutive returns closer than join + 3 × beam spacing × range are one surface
     width: float = 0.10  #: final kernel width of the match
@@ -112,6 +115,7 @@ class AlignConfig:
     #: search_max and search_max_angle; 0 search_sigmas: no search (the odometry's guess is the start)
     search_sigmas: float = 3.0
     search_below: float = 0.85  #: ... when the match from the odometry's guess explains less of the scan than this
+    search_gain: float = 0.0  #: ... and the search's match is kept when it explains this much more of the scan
     search_window: float = 0.3
     search_angle: float = math.radians(6.0)
     search_max: float = 1.0
