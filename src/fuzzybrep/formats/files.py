@@ -27,6 +27,42 @@ def _umask() -> int:
 FILE_MODE = 0o666 & ~_umask()
 
 
+#: the largest map file (JSON or compact) or point list read: a device such as /dev/zero, or a
+#: FIFO, has no size to check first, so reading stops one byte past it (the largest real map,
+#: Freiburg campus's, is a few MB)
+MAX_INPUT_BYTES = 512 * 2**20
+
+
+def read_limited(path: str | os.PathLike, limit: int | None = None, what: str = "a map file") -> bytes:
+    """The bytes of a file, read to at most ``limit`` bytes: MapFileError naming the file when it
+    cannot be read or holds more. A regular file's size is checked before it is read; anything else
+    (a device, a FIFO, standard input) is read a chunk at a time and refused one byte past the limit,
+    since its size (0) says nothing. ``limit`` None: MAX_INPUT_BYTES."""
+    path = Path(path)
+    limit = MAX_INPUT_BYTES if limit is None else limit
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            if stat.S_ISDIR(st.st_mode):
+                raise IsADirectoryError(21, "Is a directory")
+            if stat.S_ISREG(st.st_mode) and st.st_size > limit:
+                raise MapFileError(path, f"the file is {st.st_size / 2**20:.0f} MiB; {what} is read up to "
+                                         f"{limit / 2**20:g} MiB")
+            chunks, total = [], 0
+            while total <= limit:
+                chunk = f.read(min(1 << 20, limit + 1 - total))
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                total += len(chunk)
+    except OSError as e:
+        raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    if total > limit:
+        raise MapFileError(path, f"more than {limit / 2**20:g} MiB (not a regular file, so read until then); "
+                                 f"{what} is read up to {limit / 2**20:g} MiB")
+    return b"".join(chunks)
+
+
 def check_writable(path: str | os.PathLike) -> None:
     """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
     points: a folder, below a file, or in a folder that cannot be written. A command that works
