@@ -156,3 +156,35 @@ def test_map_file_holds_numbers_where_numbers_belong(tmp_path, capsys, change, w
 def test_a_map_file_as_written_still_reads(tmp_path, capsys):
     square(tmp_path / "m.json")
     assert cli.main(["tables", str(tmp_path / "m.json")]) == 0
+
+
+# ------------------------------------------------------------------------- 9: noise before errors
+
+
+@pytest.mark.filterwarnings("error")  # a NumPy warning fails the test
+def test_an_infinite_tf_translation_is_named_as_inf(tmp_path, capsys):
+    # before: a RuntimeWarning (inf - inf while interpolating), then "pose is not finite: [nan, ...]"
+    from test_rosbag import Bag
+
+    b = Bag(tmp_path / "tf.bag")
+    for k in range(4):
+        b.tf(k, "odom", "base_link", math.inf if k == 2 else 0.1 * k, 0.0, 0.0)
+        b.tf(k, "base_link", "laser", 0.0, 0.0, 0.0)
+        b.scan(k + 0.5, [1.0, 2.0, 2.0, 1.0])
+    b.close()
+    err = fails(capsys, ["build", tmp_path / "tf.bag", "--out", tmp_path / "m.json", "--quiet"],
+                "tf.bag, topic /tf, message 4: transform odom -> base_link: translation (inf, 0.0) is not finite")
+    assert "nan" not in err
+
+
+def test_a_folder_named_like_a_stale_temporary_file_does_not_block_the_write(tmp_path, capsys):
+    # before: _remove_stale unlinked it, and every write of m.json failed with "Is a directory"
+    stale = tmp_path / ".f.json.999999999.abcdefgh.tmp"
+    stale.mkdir()
+    (stale / "keep").write_text("x")
+    file = tmp_path / ".f.json.999999998.abcdefgh.tmp"  # a dead writer's file: still removed
+    file.write_text("partial")
+    square(tmp_path / "m.json")
+    assert cli.main(["fuzzify", str(tmp_path / "m.json"), "--tme", "0.1", "--out", str(tmp_path / "f.json")]) == 0
+    assert json.loads((tmp_path / "f.json").read_text())["format"]
+    assert (stale / "keep").read_text() == "x" and not file.exists()

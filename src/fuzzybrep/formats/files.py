@@ -259,12 +259,18 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
 def _remove_stale(path: Path) -> None:
     """Remove the temporary files of ``write_atomic(path)`` left by writers that were killed:
     those whose PID no longer runs. A live writer's file is left alone, and so is any other
-    file (one without a PID in its name is not ours to judge)."""
+    file (one without a PID in its name is not ours to judge), and anything named so that is not
+    a regular file (a folder, a link: we write only regular files). Nothing here stops the write:
+    the new temporary file gets a name of its own (``mkstemp``) whatever is left beside it."""
     prefix = f".{path.name}."
     for tmp in path.parent.glob(glob.escape(prefix) + "*.tmp"):
         pid = tmp.name[len(prefix):].split(".", 1)[0]
         if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
-            tmp.unlink(missing_ok=True)
+            try:
+                if stat.S_ISREG(tmp.lstat().st_mode):  # before: a folder so named was "Is a directory"
+                    tmp.unlink()
+            except OSError:
+                pass  # gone already, or not ours to remove: the write goes on
 
 
 def _running(pid: int) -> bool:
