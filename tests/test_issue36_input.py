@@ -188,3 +188,33 @@ def test_a_folder_named_like_a_stale_temporary_file_does_not_block_the_write(tmp
     assert cli.main(["fuzzify", str(tmp_path / "m.json"), "--tme", "0.1", "--out", str(tmp_path / "f.json")]) == 0
     assert json.loads((tmp_path / "f.json").read_text())["format"]
     assert (stale / "keep").read_text() == "x" and not file.exists()
+
+
+# ------------------------------------------------------------------------- 8: tables linear in rings
+
+
+def test_tables_lists_the_rings_once_and_every_table_is_its_rings(tmp_path, capsys, monkeypatch):
+    # before: every table asked BRepMap.rings, which lists all rings anew: quadratic in rings
+    # (16,000 holes 15.5 s); benchmarks/tables.py times it against alpha-cut
+    import sys
+    from pathlib import Path
+
+    from fuzzybrep.brep import BRepMap
+    from fuzzybrep.fuzzy.map import FuzzyBRepMap
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from tables import holes_map
+
+    holes_map(60).save(tmp_path / "h.json")
+    fz = FuzzyBRepMap.load(tmp_path / "h.json")
+    listed = []
+    real = BRepMap.rings
+    monkeypatch.setattr(BRepMap, "rings", property(lambda self: listed.append(1) or real.fget(self)))
+    assert cli.main(["tables", str(tmp_path / "h.json")]) == 0
+    out = capsys.readouterr().out
+    assert len(listed) <= 5, len(listed)
+    assert out.count("Fuzzy vertex table (Table 4.1)") == 61 and "Fuzzy edge table (Table 4.3): hole 60\n" in out
+    for k, ring in enumerate(fz.crisp.rings):
+        t = fz.vertex_table(k)
+        np.testing.assert_array_equal(np.column_stack((t["X"], t["Y"])), ring.vertices)
+        assert len(fz.edge_table(k)["EDGE"]) == len(ring)
