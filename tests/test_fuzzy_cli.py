@@ -13,7 +13,8 @@ from _fuzzy_shapes import TABLE_4_1, TABLE_4_1_VERTICES
 from fuzzybrep.cli import main
 from fuzzybrep.errors import GeometryError, MapFileError
 from fuzzybrep.fuzzy.map import FuzzyBRepMap
-from fuzzybrep.formats.geojson import crisp_from_geojson, read_geojson, read_points
+from fuzzybrep.formats.geojson import crisp_from_geojson, read_geojson
+from fuzzybrep.formats.points import read_points
 
 
 def polygon(shell, *holes):

@@ -625,11 +625,12 @@ def test_reading_is_linear_in_the_input(tmp_path, make, read, n):
 
 def test_geojson_too_large_is_refused_before_it_is_parsed(tmp_path, capsys, monkeypatch):
     # before: a ring of 10**7 vertices (289 MB) peaked at 6.1 GB and ended in GEOSException: std::bad_alloc
+    from fuzzybrep.commands import _maps
     from fuzzybrep.formats import geojson
     from fuzzybrep.sim import world
 
     parsed = []
-    for module in (geojson, world):  # refused before it is parsed
+    for module in (geojson, world, _maps):  # refused before it is parsed
         monkeypatch.setattr(module, "loads_json", lambda raw, real=module.loads_json: parsed.append(1) or real(raw))
     g = tmp_path / "huge.geojson"
     g.write_bytes(b'{"type": "Polygon", "coordinates": [[' + b"[0.5,0.5]," * 5_001_000 + b"[0.5,0.5]]]}")
@@ -639,7 +640,7 @@ def test_geojson_too_large_is_refused_before_it_is_parsed(tmp_path, capsys, monk
     with open(g, "r+b") as f:  # sparse: 600 MiB that take no disk
         f.truncate(600 * 2**20)
     fails(capsys, ["fuzzify", g, "--tme", "0.1", "--out", tmp_path / "f.json"],
-          "huge.geojson: the file is 600 MiB; GeoJSON is read up to 512 MiB")
+          "huge.geojson: the file is 600 MiB; a map file or GeoJSON is read up to 512 MiB")
     assert not parsed and not (tmp_path / "f.json").exists()
 
 

@@ -627,9 +627,12 @@ def test_undecodable_message_and_impossible_pose_are_named_or_skipped(tmp_path):
         read_rosbag(tmp_path / "d.bag")
     report = ReadReport()
     (s,) = read_rosbag(tmp_path / "d.bag", skip_bad=True, report=report)
-    assert s.timestamp == 1.0 and report.skipped == 2
-    assert report.errors[1].topic == "/scan" and report.errors[1].index == 2
-    assert "pose is not finite" in str(report.errors[1])
+    # the NaN pose is named where it is (issue 36 item 9; before: on the scan placed with it), and
+    # the scan after the last good pose has none
+    assert s.timestamp == 1.0 and report.skipped == 3
+    assert report.errors[1].topic == "/odom" and report.errors[1].index == 2
+    assert str(report.errors[1]).endswith("position (nan, 0.0) is not finite")
+    assert report.errors[2].topic == "/scan" and "no pose at t = 2.5" in str(report.errors[2])
 
 
 # ------------------------------------------------------------------------- bad options and trees

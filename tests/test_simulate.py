@@ -90,6 +90,19 @@ def test_glass_pass_probability():
     assert np.isclose(t, 1.0).mean() == pytest.approx(0.7, abs=0.03)
 
 
+def test_all_glass_walls_pass_to_nothing():
+    """Every wall glass (issue 36 item 7: an IndexError): a beam through the pane finds no opaque wall
+    behind it and returns nothing; one the pane returns keeps its range."""
+    w = room(glass=shapely.box(0, 0, 10, 4).boundary)
+    assert w.is_glass.all()
+    t, idx = cast_rays(w, np.array([[5.0, 2.0]] * 400), np.zeros(400), 8.0, glass_pass=0.5,
+                       rng=np.random.default_rng(1))
+    through = np.isinf(t)
+    assert 100 < through.sum() < 300
+    np.testing.assert_array_equal(idx[through], -1)
+    np.testing.assert_allclose(t[~through], 5.0)
+
+
 def test_glass_on_builtin_floor_makes_spikes():
     w, r = builtin_floor(), builtin_route()
     opaque = simulate_run(w, r, Laser(**NO_GLASS), DiffDrive(), seed=3)

@@ -25,6 +25,10 @@ def cells_area(n: int, resolution: float) -> float:
 
 
 def is_float(tok: str) -> bool:
+    """A number as a log or a CSV file writes one. Python's float() also takes digits grouped by
+    underscores ("1_0" is 10), which no writer of numbers means: refused."""
+    if "_" in tok:
+        return False
     try:
         float(tok)
         return True

@@ -69,6 +69,12 @@ def _command(argv: list[str]) -> str | None:
     return module if module in COMMANDS and module.replace("_", "-") == first else None
 
 
+def _inputs(args: argparse.Namespace) -> str:
+    """"LOG: " (or MAP, CRISP): what an error with no file of its own says it was reading."""
+    names = [str(v) for v in (getattr(args, a, None) for a in ("log", "map", "crisp")) if v is not None]
+    return f"{', '.join(names)}: " if names else ""
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     # options before the command (fuzzybrep --help) or no known command: the whole parser says so
@@ -78,6 +84,11 @@ def main(argv: list[str] | None = None) -> int:
         return int(args._run(args) or 0)
     except FuzzyBrepError as e:
         print(f"fuzzybrep {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except MemoryError as e:  # NumPy's _ArrayMemoryError among them: one line, as any error of ours
+        print(f"fuzzybrep {args.command}: error: {_inputs(args)}out of memory"
+              f"{': ' + ' '.join(str(e).split()) if str(e) else ''} (the input is too large for this "
+              f"machine's memory)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

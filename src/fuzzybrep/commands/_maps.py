@@ -9,8 +9,8 @@ from pathlib import Path
 from ..brep import BRepMap, Ring
 from ..errors import MapFileError, MembershipFunctionError
 from ..formats.compact import MAGIC
-from ..formats.files import loads_json
-from ..formats.geojson import read_geojson
+from ..formats.files import loads_json, read_limited
+from ..formats.geojson import MAX_GEOJSON_BYTES, MAX_GEOJSON_POSITIONS, crisp_from_geojson
 from ..formats.mapfile import FORMAT, MapFile, from_json, map_from_bytes, read_map
 from ..fuzzy.map import ALIASES, DEFAULT_METHOD, METHODS, FuzzyBRepMap, fuzzify
 from ..fuzzy.membership import DEFAULT_TME_M, parse_spec, total_maximum_error
@@ -103,10 +103,9 @@ def load_map(args: argparse.Namespace, m: MapFile | None = None) -> FuzzyBRepMap
 def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
     """A crisp map from GeoJSON, or from a fuzzybrep map file or compact map (its crisp part)."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()  # once: a map file is decoded from these bytes
-    except OSError:
-        return read_geojson(path, unit)  # which says why the file cannot be read
+    # once, and bounded (/dev/zero or a FIFO has no size to check first): a map file or GeoJSON
+    # is decoded from these bytes
+    raw = read_limited(path, MAX_GEOJSON_BYTES, "a map file or GeoJSON")
     crisp = None
     if raw.startswith(MAGIC):
         crisp = map_from_bytes(raw, path).crisp
@@ -118,10 +117,26 @@ def read_crisp(path: str | Path, unit: str | None) -> BRepMap:
         if isinstance(obj, dict) and obj.get("format") == FORMAT:
             crisp = from_json(obj, path).crisp
     if crisp is None:
-        return read_geojson(path, unit)
+        return _geojson_from_bytes(raw, path, unit)
     # the FM column indexes the file's own Table 4.2, which fuzzifying replaces: kept, a
     # frontier index 2 would have no function in a new one-function table
     return crisp.with_rings([Ring(r.vertices, r.kinds) for r in crisp.rings])
+
+
+def _geojson_from_bytes(raw: bytes, path: Path, unit: str | None) -> BRepMap:
+    """``read_geojson`` of a file's bytes already read (a FIFO cannot be read twice), with its limits."""
+    brackets = raw.count(b"[")
+    if brackets > MAX_GEOJSON_POSITIONS + 1000:  # every position opens one: counted before parsing
+        raise MapFileError(path, f"the file holds about {brackets} positions; GeoJSON is read with up to "
+                                 f"{MAX_GEOJSON_POSITIONS}")
+    try:
+        obj = loads_json(raw)
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise MapFileError(path, f"not valid JSON ({e})") from None
+    try:
+        return crisp_from_geojson(obj, unit)
+    except ValueError as e:  # GeometryError among them
+        raise MapFileError(path, str(e)) from None
 
 
 __all__ = ["DEFAULT_TME_M", "add_map_argument", "add_mf_arguments", "fuzzify_from_args", "load_map", "mf_from_args",

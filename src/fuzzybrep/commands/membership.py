@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..formats.geojson import read_points
+from ..formats.points import read_points
 from ..fuzzy.map import METHODS
 from ._maps import add_map_argument, add_method_argument, load_map
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -77,11 +78,9 @@ def _csv(header, rows) -> bytes:
 
 def _print(title: str, header: list[str], rows: list[list[str]]) -> None:
     widths = [max(len(h), *(len(r[j]) for r in rows)) if rows else len(h) for j, h in enumerate(header)]
-    print(title)
-    print("  ".join(h.rjust(w) for h, w in zip(header, widths)))
-    for r in rows:
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
-    print()
+    lines = [title, "  ".join(h.rjust(w) for h, w in zip(header, widths))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    sys.stdout.write("\n".join(lines) + "\n\n")  # one write a table: a print a row took a fifth of the time
 
 
 def run(args: argparse.Namespace) -> int:

@@ -27,6 +27,42 @@ def _umask() -> int:
 FILE_MODE = 0o666 & ~_umask()
 
 
+#: the largest map file (JSON or compact) or point list read: a device such as /dev/zero, or a
+#: FIFO, has no size to check first, so reading stops one byte past it (the largest real map,
+#: Freiburg campus's, is a few MB)
+MAX_INPUT_BYTES = 512 * 2**20
+
+
+def read_limited(path: str | os.PathLike, limit: int | None = None, what: str = "a map file") -> bytes:
+    """The bytes of a file, read to at most ``limit`` bytes: MapFileError naming the file when it
+    cannot be read or holds more. A regular file's size is checked before it is read; anything else
+    (a device, a FIFO, standard input) is read a chunk at a time and refused one byte past the limit,
+    since its size (0) says nothing. ``limit`` None: MAX_INPUT_BYTES."""
+    path = Path(path)
+    limit = MAX_INPUT_BYTES if limit is None else limit
+    try:
+        with open(path, "rb") as f:
+            st = os.fstat(f.fileno())
+            if stat.S_ISDIR(st.st_mode):
+                raise IsADirectoryError(21, "Is a directory")
+            if stat.S_ISREG(st.st_mode) and st.st_size > limit:
+                raise MapFileError(path, f"the file is {st.st_size / 2**20:.0f} MiB; {what} is read up to "
+                                         f"{limit / 2**20:g} MiB")
+            chunks, total = [], 0
+            while total <= limit:
+                chunk = f.read(min(1 << 20, limit + 1 - total))
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                total += len(chunk)
+    except OSError as e:
+        raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
+    if total > limit:
+        raise MapFileError(path, f"more than {limit / 2**20:g} MiB (not a regular file, so read until then); "
+                                 f"{what} is read up to {limit / 2**20:g} MiB")
+    return b"".join(chunks)
+
+
 def check_writable(path: str | os.PathLike) -> None:
     """MapFileError now if ``write_atomic(path, ...)`` cannot work because of where the path
     points: a folder, below a file, or in a folder that cannot be written. A command that works
@@ -223,12 +259,18 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> int:
 def _remove_stale(path: Path) -> None:
     """Remove the temporary files of ``write_atomic(path)`` left by writers that were killed:
     those whose PID no longer runs. A live writer's file is left alone, and so is any other
-    file (one without a PID in its name is not ours to judge)."""
+    file (one without a PID in its name is not ours to judge), and anything named so that is not
+    a regular file (a folder, a link: we write only regular files). Nothing here stops the write:
+    the new temporary file gets a name of its own (``mkstemp``) whatever is left beside it."""
     prefix = f".{path.name}."
     for tmp in path.parent.glob(glob.escape(prefix) + "*.tmp"):
         pid = tmp.name[len(prefix):].split(".", 1)[0]
         if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
-            tmp.unlink(missing_ok=True)
+            try:
+                if stat.S_ISREG(tmp.lstat().st_mode):  # before: a folder so named was "Is a directory"
+                    tmp.unlink()
+            except OSError:
+                pass  # gone already, or not ours to remove: the write goes on
 
 
 def _running(pid: int) -> bool:

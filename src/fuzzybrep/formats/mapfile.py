@@ -27,7 +27,7 @@ import numpy as np
 from ..brep import BRepMap, Region, Ring
 from ..errors import MapFileError
 from .compact import MAGIC, compact_from_bytes
-from .files import check_map, loads_json, write_atomic
+from .files import check_map, loads_json, read_limited, write_atomic
 
 FORMAT = "fuzzybrep-map"
 VERSION = 1
@@ -52,6 +52,18 @@ def _ring_to_json(r: Ring) -> dict:
     }
 
 
+def _numbers(values, what: str, where: str = "vertex") -> np.ndarray:
+    """A list of JSON numbers as floats: ValueError naming the first that is not one. NumPy takes
+    a boolean (JSON's ``true`` is 1 to Python: bool is an int) or a numeric string ("1.5") without
+    a word; a map file holds neither."""
+    if not isinstance(values, list):
+        raise ValueError(f"{what} must be a list of numbers, got {type(values).__name__}")
+    if not set(map(type, values)) <= {int, float}:
+        i = next(i for i, v in enumerate(values) if type(v) not in (int, float))
+        raise ValueError(f"{where} {i + 1}: {what} {values[i]!r} is not a number")
+    return np.asarray(values, dtype=np.float64)
+
+
 def _whole(d: dict, key: str, what: str, ok, rule: str) -> np.ndarray | None:
     """A ring's edge-kind or FM column as read: whole numbers that pass ``ok``, or None if absent.
 
@@ -59,9 +71,7 @@ def _whole(d: dict, key: str, what: str, ok, rule: str) -> np.ndarray | None:
     into an edge kind that is neither obstacle nor frontier without a word."""
     if d.get(key) is None:
         return None
-    a = np.asarray(d[key], dtype=np.float64)
-    if a.ndim != 1:
-        raise ValueError(f"{key} must be a list of numbers")
+    a = _numbers(d[key], what)
     with np.errstate(invalid="ignore"):
         bad = ~((a == np.round(a)) & ok(a))
     if bad.any():
@@ -74,8 +84,8 @@ def _ring_from_json(d: dict, where: str) -> Ring:
     try:
         if not isinstance(d, dict):
             raise ValueError(f"expected an object with x, y, kind and fm lists, got {type(d).__name__}")
-        x, y = np.asarray(d["x"], dtype=np.float64), np.asarray(d["y"], dtype=np.float64)
-        if x.shape != y.shape or x.ndim != 1:
+        x, y = _numbers(d["x"], "x"), _numbers(d["y"], "y")
+        if x.shape != y.shape:
             raise ValueError(f"x has {x.size} values, y has {y.size}")
         kinds = _whole(d, "kind", "edge kind", lambda k: (k == 0) | (k == 1), "is neither 0 (obstacle) nor 1 (frontier)")
         fm = _whole(d, "fm", "FM index", lambda f: (f >= 1) & (f < 2**31), "is not a whole number from 1 up")
@@ -131,13 +141,27 @@ def from_json(d: dict, path: str | os.PathLike = "<map>") -> MapFile:
             raise ValueError("no regions")
         crisp = BRepMap(tuple(regions), _typed(d, "unit", str, "m"))
         scans = _typed(d, "scans", dict, None)
-        poses = None if not scans else _poses(scans.get("poses"))
+        poses = None if not scans else _json_poses(scans.get("poses"))
+        count = None if not scans else scans.get("count")
+        if count is not None and (type(count) is not int or poses is None or count != len(poses)):
+            # before: read without a word, and the map's scans were whichever the poses said
+            raise ValueError(f"scans.count is {count!r}, but scans.poses holds "
+                             f"{'no' if poses is None else len(poses)} poses")
         mfs = list(_typed(d, "membership_functions", list, []))
         meta = dict(_typed(d, "metadata", dict, {}))
     except (KeyError, TypeError, ValueError) as e:
         raise MapFileError(path, f"malformed map: {e}") from None
     check_map(crisp, path)
     return MapFile(crisp, mfs, poses, meta)
+
+
+def _json_poses(rows, name: str = "scans.poses") -> np.ndarray:
+    """``_poses`` of a file's JSON: rows of numbers, not booleans or strings (as ``_numbers``)."""
+    if isinstance(rows, list):
+        for i, r in enumerate(rows):
+            if not (isinstance(r, list) and set(map(type, r)) <= {int, float}):
+                raise ValueError(f"{name} row {i + 1} is not a list of numbers: {r!r}")
+    return _poses(rows, name)
 
 
 def _poses(rows, name: str = "scans.poses") -> np.ndarray:
@@ -165,11 +189,7 @@ def read_map(path: str | os.PathLike) -> MapFile:
     """A map file, or a compact map (``export --compact``): the same crisp map and Table 4.2,
     without the scan poses."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise MapFileError(path, f"cannot read: {e.strerror or e}") from None
-    return map_from_bytes(raw, path)
+    return map_from_bytes(read_limited(path), path)  # bounded: /dev/zero has no size to check
 
 
 def map_from_bytes(raw: bytes, path: str | os.PathLike = "<map>") -> MapFile:

@@ -115,6 +115,12 @@ class FuzzyBRepMap:
         return self.crisp.ring_names()
 
     @cached_property
+    def rings(self) -> list[Ring]:
+        """``crisp.rings``, listed once: the crisp map lists them anew on every access, so a table
+        per ring that asked it made ``tables`` quadratic in rings (issue 36 item 8)."""
+        return self.crisp.rings
+
+    @cached_property
     def roles(self) -> list[str]:
         return [SHELL if j == 0 else HOLE for region in self.crisp.regions for j in range(1 + len(region.holes))]
 

@@ -379,6 +379,12 @@ def from_dict(d: Mapping) -> MembershipFunction:
         raise MembershipFunctionError(f"unknown membership function type {d.get('type')!r} "
                                       f"(known: {', '.join(FAMILIES)})")
     params = {k: v for k, v in d.items() if k not in ("type", "index")}
+    for key, v in params.items():  # a map file's true or "0.2" was read as 1 or 0.2 without a word
+        if key in ("p", "tme", "tme_in", "tme_out") and v is not None \
+                and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise MembershipFunctionError(f"{kind}: {key} must be a number, got {v!r}")
+        if key == "truncate" and not isinstance(v, bool):
+            raise MembershipFunctionError(f"{kind}: truncate must be true or false, got {v!r}")
     try:
         if kind == "triangular":
             return Triangular(params.pop("tme", None), tme_in=params.pop("tme_in", None),

@@ -23,7 +23,7 @@ def vertex_table(fz, k: int = 0) -> dict[str, np.ndarray]:
     XOUT/YOUT and XIN/YIN are NaN (NULL) where the vertex does not survive on the proper
     polygon of the support offset; T, U, V, W stay, since the vertex may survive at higher α.
     """
-    ln, ring = fz.lines[k], fz.crisp.rings[k]
+    ln, ring = fz.lines[k], fz.rings[k]
     pin, pout = fz.support_polygons[k]
     vin, vout = ln.vin.copy(), ln.vout.copy()
     vin[~pin.vertex_kept] = np.nan
@@ -44,7 +44,7 @@ def edge_table(fz, k: int = 0) -> dict[str, np.ndarray]:
     0 stands for NULL (a deleted vertex, or an edge none of which survives on the proper
     polygon); EDGE_OUT/EDGE_IN carry the edge number when some of the edge survives.
     """
-    ring = fz.crisp.rings[k]
+    ring = fz.rings[k]
     n = len(ring)
     pin, pout = fz.support_polygons[k]
     e = np.arange(1, n + 1)

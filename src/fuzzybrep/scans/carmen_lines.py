@@ -33,10 +33,17 @@ def _number(tok: str, name: str, finite: bool = True) -> float:
     return v
 
 
+def _integer(tok: str) -> int:
+    """int(tok), but not of digits grouped by underscores (int() reads "1_0" as 10): ValueError."""
+    if "_" in tok:
+        raise ValueError(tok)
+    return int(tok)
+
+
 def _count(parts: list[str], i: int, name: str, least: int) -> int:
     tok = parts[i] if i < len(parts) else ""
     try:
-        n = int(tok)
+        n = _integer(tok)
     except ValueError:
         raise BadLine(name, f"{tok!r} is not an integer") from None
     if n < least:
@@ -47,6 +54,8 @@ def _count(parts: list[str], i: int, name: str, least: int) -> int:
 def _ranges(parts: list[str], at: int, n: int, name: str) -> np.ndarray:
     """n ranges from parts[at]: finite and not negative (fields named name_1 ... name_n)."""
     try:
+        if "_" in "".join(parts[at : at + n]):  # NumPy, as float(), reads "1_0" as 10
+            raise ValueError("underscore")
         r = np.array(parts[at : at + n], dtype=np.float64)
     except ValueError:
         bad = next(i for i, t in enumerate(parts[at : at + n]) if not is_float(t))
@@ -61,7 +70,7 @@ def _ranges(parts: list[str], at: int, n: int, name: str) -> np.ndarray:
 def parse_flaser(parts: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(ranges, pose, odometry, timestamp) of one FLASER line; raises BadLine naming the field."""
     try:
-        n = int(parts[1])
+        n = _integer(parts[1])
     except (IndexError, ValueError):
         raise BadLine("n", f"beam count {parts[1] if len(parts) > 1 else ''!r} is not an integer") from None
     if n <= 0:

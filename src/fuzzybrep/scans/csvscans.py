@@ -80,6 +80,9 @@ def read_csv(
         raise ScanFormatError(path, None, "empty: no header line")
     header_line, header = lines[header_at]
     names = [c.strip().lower() for c in header.split(",")]
+    twice = next((c for c in COLUMNS + ODOM_COLUMNS if names.count(c) > 1), None)
+    if twice is not None:  # before: the first was read and the second passed over without a word
+        raise ScanFormatError(path, header_line, f"header names column {twice!r} twice", twice)
     missing = [c for c in COLUMNS if c not in names]
     if missing:
         raise ScanFormatError(path, header_line, f"header lacks column(s) {', '.join(missing)}; expected {','.join(COLUMNS)}")

@@ -72,6 +72,13 @@ def planar(qx: float, qy: float, qz: float, qw: float) -> tuple[float, int]:
     return yaw, mirror
 
 
+def _finite(x: float, y: float, what: str) -> None:
+    """ValueError naming ``what`` and the values as given when x or y is not finite: refused where
+    it is read, since interpolated (inf − inf) it became a NumPy warning and a pose of NaN."""
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(f"{what} ({x!r}, {y!r}) is not finite")
+
+
 def compose(a: tuple, b: tuple) -> tuple:
     """a ∘ b of planar transforms (x, y, yaw, mirror), each an array over scans."""
     xa, ya, ta, sa = a
@@ -284,6 +291,7 @@ def _read(path, reader, scan_topic, odom_topic, tf, max_range, skip_bad, report,
                 raws.append(_laser_scan(msg, index, bag_ns, max_range))
             elif topic in odom:
                 p = msg.pose.pose
+                _finite(p.position.x, p.position.y, "position")
                 yaw, m = planar(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
                 key = (_frame(msg.header.frame_id), _frame(msg.child_frame_id))
                 odom[topic].setdefault(key, []).append((_stamp(msg.header, bag_ns), p.position.x, p.position.y, yaw, m))
@@ -291,12 +299,14 @@ def _read(path, reader, scan_topic, odom_topic, tf, max_range, skip_bad, report,
                 into = static if topic.rstrip("/").endswith("tf_static") else moving
                 for tr in msg.transforms:
                     q, v = tr.transform.rotation, tr.transform.translation
+                    _finite(v.x, v.y, f"transform {_frame(tr.header.frame_id)} -> {_frame(tr.child_frame_id)}: "
+                                      f"translation")
                     yaw, m = planar(q.x, q.y, q.z, q.w)
                     key = (_frame(tr.header.frame_id), _frame(tr.child_frame_id))
                     into.setdefault(key, []).append((_stamp(tr.header, bag_ns), v.x, v.y, yaw, m))
         except _Bad as e:
             bad(e.error(path, topic, index))
-        except ValueError as e:  # an impossible quaternion
+        except ValueError as e:  # an impossible quaternion, a translation not finite
             bad(BagMessageError(path, topic, index, str(e)))
     if not raws:
         raise ScanFormatError(path, None, f"no usable LaserScan messages on {scan_topic}")

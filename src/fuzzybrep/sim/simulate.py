@@ -129,7 +129,9 @@ def cast_rays(world: World, origins: np.ndarray, angles: np.ndarray, max_range: 
         if through.any():
             opaque = np.flatnonzero(~glass)
             t2, i2 = _first_hits(seg[opaque], o[through], d[through], np.full(int(through.sum()), max_range))
-            t[through], idx[through] = t2, np.where(i2 >= 0, opaque[np.maximum(i2, 0)], -1)
+            behind = np.full_like(i2, -1)  # all glass (no opaque wall): nothing behind the pane
+            behind[i2 >= 0] = opaque[i2[i2 >= 0]]
+            t[through], idx[through] = t2, behind
         mirror = on_glass & ~through & (u < glass_pass + glass_reflect)
         if mirror.any():
             t1, g = t[mirror], idx[mirror]
