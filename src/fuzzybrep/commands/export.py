@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ._maps import add_map_argument, add_method_argument, load_map
 from ._progress import steps
-from ._types import alpha, file_name, number
+from ._types import add_georef_argument, alpha, file_name, number
 
 NAME = "export"
 HELP = ("export a map: α-cuts as GeoJSON, a ROS map_server pair, Nav2 map and costmap filter masks, a ROS 2 bag, "
@@ -45,6 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     out.add_argument("--compact", metavar="OUT.fbrc",
                      help="the compact binary map a small robot stores: vertices to 1 mm as varint steps, edge "
                           "kinds, Table 4.2 (fuzzybrep.formats.compact; the fuzzy tables follow from it in O(n))")
+    add_georef_argument(p)
     p.add_argument("--alpha", type=alpha, action="append", metavar="A",
                    help="α level for --geojson, --svg, --bag and --mcap; repeat for several (default 0 0.25 0.5 0.75 1)")
     add_method_argument(p, what="α-cuts for --geojson, --svg, --bag, --mcap and the --nav2 keepout mask")
@@ -140,7 +141,11 @@ def run(args: argparse.Namespace) -> int:
             svg = svg_document(fuzzy, cuts, support, title=Path(args.map).name).encode("utf-8")
         if args.geojson:
             step(f"writing {args.geojson}")
-            n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
+            try:
+                n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts),
+                                  unit=fuzzy.unit, georef=args.georef)
+            except ValueError as e:
+                raise MapFileError(args.geojson, str(e)) from None
             print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
                   f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
         if raster is not None:
