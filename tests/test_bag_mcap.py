@@ -97,6 +97,38 @@ def test_bag_reads_back_with_rosbags(floor, tmp_path, storage, capsys):
     assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no temporary folder left
 
 
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_bag_metadata_for_humble_and_jazzy(floor, tmp_path, storage):
+    """Humble's rosbag2 reads metadata version 5 with offered_qos_profiles a YAML string (a
+    serialized list), and failed on the version 9 file we wrote, whose QoS is a list (issue 36)."""
+    from ruamel.yaml import YAML  # what rosbags reads YAML with
+
+    pyyaml = YAML(typ="safe")
+    pyyaml.safe_load = pyyaml.load
+    path = tmp_path / "floor.json"
+    floor.save(path)
+    for distro, version in (("humble", 5), ("jazzy", 9), (None, 5)):
+        bag = tmp_path / f"{distro}.bag"
+        assert run("export", path, "--bag", bag, "--bag-storage", storage,
+                   *(["--ros-distro", distro] if distro else [])) == 0
+        info = pyyaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        assert info["version"] == version
+        topics = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
+        assert set(topics) == {"/map", "/map_boundary"}
+        for t in topics.values():
+            qos = t["offered_qos_profiles"]
+            if version == 5:
+                assert isinstance(qos, str)  # Humble: a YAML document inside a string
+                assert "type_description_hash" not in t
+                assert not {"custom_data", "ros_distro"} & set(info)
+                qos = pyyaml.safe_load(qos)
+            assert isinstance(qos, list) and len(qos) == 1
+            # transient local, keep last 1: rmw's enum values in Humble's shape, names in Jazzy's
+            assert qos[0]["durability"] == (1 if version == 5 else "transient_local") and qos[0]["depth"] == 1
+        assert info["message_count"] == 2 and info["relative_file_paths"]
+        check_bag(bag, floor, membership_raster(floor, 0.05, "safe"))  # rosbags reads both
+
+
 def read_mcap(path):
     from mcap.reader import make_reader
     from mcap_protobuf.decoder import DecoderFactory

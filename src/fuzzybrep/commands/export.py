@@ -63,6 +63,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="--nav2: the speed mask's limit at the crisp boundary, percent of the maximum (default 30)")
     p.add_argument("--bag-storage", choices=("mcap", "sqlite3"), default="mcap",
                    help="--bag: the ROS 2 bag's storage (default mcap)")
+    p.add_argument("--ros-distro", choices=("humble", "jazzy"), default="humble",
+                   help="--bag: the ROS 2 release whose rosbag2 reads it: humble (metadata version 5, QoS profiles "
+                        "as a string; Jazzy reads it too: the default) or jazzy (version 9)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -170,8 +173,8 @@ def run(args: argparse.Namespace) -> int:
             from ..formats.ros2bag import write_bag
 
             step(f"writing {args.bag}")
-            write_bag(args.bag, fuzzy, raster, cuts, args.bag_storage, scale=k)
-            print(f"{args.bag}: ROS 2 bag ({args.bag_storage}): /map OccupancyGrid, /map_boundary MarkerArray "
+            write_bag(args.bag, fuzzy, raster, cuts, args.bag_storage, scale=k, distro=args.ros_distro)
+            print(f"{args.bag}: ROS 2 bag ({args.bag_storage}, for {args.ros_distro} and newer): /map OccupancyGrid, /map_boundary MarkerArray "
                   f"(crisp boundary, frontier edges, {len([c for c in cuts if c.alpha < 1])} α-cuts), latched")
         if args.mcap:
             from ..formats.foxglove_mcap import write_mcap
