@@ -3,6 +3,14 @@ with the same libraries: the grid is the Nav2 map's, the polygons are the map's.
 
 from __future__ import annotations
 
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -97,6 +105,38 @@ def test_bag_reads_back_with_rosbags(floor, tmp_path, storage, capsys):
     assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no temporary folder left
 
 
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_bag_metadata_for_humble_and_jazzy(floor, tmp_path, storage):
+    """Humble's rosbag2 reads metadata version 5 with offered_qos_profiles a YAML string (a
+    serialized list), and failed on the version 9 file we wrote, whose QoS is a list (issue 36)."""
+    from ruamel.yaml import YAML  # what rosbags reads YAML with
+
+    pyyaml = YAML(typ="safe")
+    pyyaml.safe_load = pyyaml.load
+    path = tmp_path / "floor.json"
+    floor.save(path)
+    for distro, version in (("humble", 5), ("jazzy", 9), (None, 5)):
+        bag = tmp_path / f"{distro}.bag"
+        assert run("export", path, "--bag", bag, "--bag-storage", storage,
+                   *(["--ros-distro", distro] if distro else [])) == 0
+        info = pyyaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        assert info["version"] == version
+        topics = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in info["topics_with_message_count"]}
+        assert set(topics) == {"/map", "/map_boundary"}
+        for t in topics.values():
+            qos = t["offered_qos_profiles"]
+            if version == 5:
+                assert isinstance(qos, str)  # Humble: a YAML document inside a string
+                assert "type_description_hash" not in t
+                assert not {"custom_data", "ros_distro"} & set(info)
+                qos = pyyaml.safe_load(qos)
+            assert isinstance(qos, list) and len(qos) == 1
+            # transient local, keep last 1: rmw's enum values in Humble's shape, names in Jazzy's
+            assert qos[0]["durability"] == (1 if version == 5 else "transient_local") and qos[0]["depth"] == 1
+        assert info["message_count"] == 2 and info["relative_file_paths"]
+        check_bag(bag, floor, membership_raster(floor, 0.05, "safe"))  # rosbags reads both
+
+
 def read_mcap(path):
     from mcap.reader import make_reader
     from mcap_protobuf.decoder import DecoderFactory
@@ -112,7 +152,9 @@ def read_mcap(path):
 def check_mcap(path, fz, raster):
     msgs = read_mcap(path)
     name, t, grid = msgs["/map"]
-    assert name == "foxglove.Grid" and t == 0 and grid.frame_id == "map"
+    # logged at the time of writing (before: 0, "unset"), the message's own timestamp the same
+    assert name == "foxglove.Grid" and abs(t - time.time_ns()) < 600e9 and grid.frame_id == "map"
+    assert grid.timestamp.ToNanoseconds() == t
     assert grid.column_count == raster.shape[1] and grid.cell_size.x == raster.resolution
     assert (grid.pose.position.x, grid.pose.position.y) == raster.origin
     fields = {f.name: f.offset for f in grid.fields}
@@ -142,6 +184,41 @@ def test_mcap_reads_back_with_the_mcap_reader(floor, tmp_path, capsys):
     assert run("export", path, "--mcap", tmp_path / "floor.mcap") == 0
     assert "foxglove.Grid" in capsys.readouterr().out
     check_mcap(tmp_path / "floor.mcap", floor, membership_raster(floor, 0.05, "safe"))
+
+
+def test_mcap_passes_strict_readers(floor, tmp_path):
+    """Every reader accepts it: the mcap library's seeking and streaming readers with CRCs checked
+    and the summary read, and pymcap-cli's doctor (if installed), which found two structural
+    errors before: summary offsets pointing at empty MetadataIndex and AttachmentIndex groups."""
+    from mcap.reader import SeekingReader, StreamReader
+    from mcap.records import MetadataIndex, SummaryOffset
+
+    from fuzzybrep.formats.foxglove_mcap import write_mcap
+
+    out = tmp_path / "floor.mcap"
+    stamp = 1_700_000_000_123_456_789
+    write_mcap(out, floor, membership_raster(floor, 0.05, "safe"), [floor.alpha_cut(0.5)], stamp_ns=stamp)
+    with open(out, "rb") as f:
+        reader = SeekingReader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        assert summary.statistics.message_count == 2
+        assert summary.statistics.message_start_time == summary.statistics.message_end_time == stamp
+        assert not summary.metadata_indexes and not summary.attachment_indexes
+        msgs = list(reader.iter_messages())
+        assert [m.log_time for _, _, m in msgs] == [stamp, stamp]
+        assert [m.publish_time for _, _, m in msgs] == [stamp, stamp]
+    with open(out, "rb") as f:
+        records = list(StreamReader(f, validate_crcs=True, skip_magic=False).records)
+    offsets = [r for r in records if isinstance(r, SummaryOffset)]
+    groups = {type(r).__name__ for r in records}
+    assert offsets and all(o.group_length > 0 for o in offsets)  # no offset to an empty group
+    assert not any(isinstance(r, MetadataIndex) for r in records) and "ChunkIndex" in groups
+    doctor = shutil.which("pymcap-cli", path=os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]))
+    if doctor:
+        res = subprocess.run([doctor, "doctor", "--format", "jsonl", str(out)], capture_output=True, text=True, timeout=60)
+        lines = [json.loads(x) for x in res.stdout.splitlines() if x.startswith("{")]
+        summary = [x for x in lines if x.get("type") == "summary"]
+        assert summary and summary[0]["errors"] == 0 and summary[0]["warnings"] == 0, res.stdout
 
 
 @pytest.mark.reallog

@@ -389,6 +389,53 @@ def test_intel_page_in_chromium(browser, built_map, tmp_path):
     assert 0.99 <= mu <= 1.0
 
 
+def rounded_away_map():
+    """A room with two holes whose principal ring has a 1.13 mm diagonal edge (kept: at least
+    ``brep.min_edge``) whose ends round to the same millimetre on the page (issue 36)."""
+    room = [(0, 0), (4.9996, -0.0004), (5.0004, 0.0004), (10, 0), (10, 10), (0, 10)]
+    holes = [[(2, 2), (2, 4), (4, 4), (4, 2)], [(6, 6), (6, 8), (8, 8), (8, 6)]]
+    return fuzzify(BRepMap.from_shapely(shapely.Polygon(room, holes)), tme=0.3)
+
+
+def test_page_data_of_a_rounded_away_edge():
+    """What Python gives the page: the edge is there, and its two ends are one point in quanta."""
+    fz = rounded_away_map()
+    assert fz.crisp.n_vertices == 14
+    d = payload(fz)
+    assert d["q"] == 0.001 and 0 in d["x"][1:6]  # the edge's end is a zero step from its start
+    assert all(np.isfinite(d["t"])) and all(np.isfinite(d["v"]))
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("method", ["safe", "thesis"])
+def test_band_drawn_past_an_edge_rounded_away(browser, tmp_path, method):
+    """Before, the safe sweep's corner after the edge was NaN, and Chromium dropped the band's
+    path from there on, silently: no band round either hole. Pixels where the page's μ ≥ 0.1 at
+    α = 0.05 are painted neither free nor outside."""
+    fz = rounded_away_map()
+    write_html(tmp_path / "map.html", fz, method=method)
+    open_page(browser, tmp_path / "map.html")
+    h = browser.execute_script("return window.fuzzybrepViewer.hulls(0.05)")
+    assert all(np.isfinite(c).all() for c in h["free"] + h["obstacle"])
+    browser.execute_script("window.fuzzybrepViewer.setAlpha(0.05);"
+                           "return new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+    xs = np.linspace(1.5, 8.5, 57)
+    pts = [(x, y) for x in xs for y in xs]
+    got = browser.execute_script("""
+        const v = window.fuzzybrepViewer, c = document.getElementById('map'), g = c.getContext('2d');
+        const k = c.width / c.clientWidth;
+        return arguments[0].map(([x, y]) => {
+          const [sx, sy] = v.toScreen(x, y), p = g.getImageData(Math.round(sx * k), Math.round(sy * k), 1, 1).data;
+          return [v.muAt(x, y).mu, p[0], p[1], p[2]];
+        });""", pts)
+    got = np.array(got)
+    banded = got[got[:, 0] >= 0.1]
+    assert len(banded) > 100
+    rgb = banded[:, 1:].astype(int)
+    free_or_outside = (rgb == [255, 255, 255]).all(axis=1) | (rgb == [0xd5, 0xd8, 0xdc]).all(axis=1)
+    assert free_or_outside.mean() < 0.02
+
+
 #: a file name and a unit an attacker would choose (issue 19): markup, a slot of the page's template,
 #: a comment opener that swallowed the viewer's own script, a script end tag
 HOSTILE_NAME = "x<img src=x onerror=\"window.pwned=1\">{{DATA}}<script>{{TITLE}}.json"  # no "/" in a name

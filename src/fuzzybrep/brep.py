@@ -44,6 +44,25 @@ def frontier_fm(kinds: np.ndarray, fm, k: int) -> np.ndarray:
 LARGEST = 1e60
 
 
+#: the shortest edge a map keeps, by its unit: a millimetre (the rounding step of the compact map,
+#: the viewer and the pictures; 0.5 % of the thesis's TME). Unions and simplification leave edges
+#: of 1e-15 m to under 1 mm where two rings nearly touch; such an edge has no direction worth the
+#: name (its corner's normal is noise, and at the viewer's 1 mm rounding none at all), so every map
+#: built, fuzzified or loaded has them merged away (``drop_short_edges``). Other units: 1e-3.
+#: (Shorter by more than ``SLACK`` of it, for rounding's sake.)
+MIN_EDGE = {"m": 1e-3, "cm": 0.1, "mm": 1.0}
+
+
+#: an edge of exactly the tolerance, from coordinates rounded to it (the compact map's), can come
+#: out a rounding error short: edges shorter than the tolerance by more than this part of it go
+SLACK = 1e-6
+
+
+def min_edge(unit: str) -> float:
+    """The shortest edge a map in ``unit`` keeps (``MIN_EDGE``)."""
+    return MIN_EDGE.get(unit, 1e-3)
+
+
 @dataclass(frozen=True, eq=False)
 class Ring:
     """One closed boundary: the vertex table with its edge table implied.
@@ -83,6 +102,33 @@ class Ring:
     def signed_area(self) -> float:
         """Shoelace area: positive for counter-clockwise rings."""
         return signed_area(self.vertices)
+
+    def without_short_edges(self, tol: float) -> "Ring":
+        """This ring with every edge shorter than ``tol`` merged away (itself if it has none).
+
+        Walking round from vertex 1, a vertex closer than ``tol`` to the last one kept is dropped
+        (and the last ones closer than ``tol`` to vertex 1): every edge left is at least ``tol``
+        long, and no vertex moves (the boundary moves less than ``tol``). A merged edge
+        takes the kind of the longest edge it replaces; a kept vertex keeps its FM. The result
+        can have fewer than 3 vertices; the caller checks it (``drop_short_edges``)."""
+        v = self.vertices
+        n = len(v)
+        if n < 2:
+            return self
+        tol = tol * (1 - SLACK)
+        step = np.hypot(*(np.concatenate((v[1:], v[:1])) - v).T)
+        if not (step < tol).any():
+            return self
+        keep, last = [0], v[0]
+        for j in range(1, n):
+            if np.hypot(*(v[j] - last)) >= tol:
+                keep.append(j)
+                last = v[j]
+        while len(keep) > 1 and np.hypot(*(v[keep[-1]] - v[0])) < tol:
+            keep.pop()
+        ends = keep[1:] + [n]
+        kinds = [self.kinds[a + int(np.argmax(step[a:b]))] for a, b in zip(keep, ends)]
+        return Ring(v[keep], np.array(kinds, np.uint8), self.fm[keep])
 
     def closed_coords(self) -> np.ndarray:
         return np.vstack((self.vertices, self.vertices[:1]))
@@ -173,6 +219,22 @@ class BRepMap:
         polys = [g for g in shapely.get_parts(polygonal(geom)) if g.area > min_area]
         if not polys:
             raise GeometryError("the map has no free space with area")
+        out = cls._from_parts(polys, unit)
+        try:
+            return drop_short_edges(out, drop_vanishing=True)
+        except GeometryError:
+            # merging an edge away made a ring touch another (a vertex within the tolerance of an
+            # edge): snap-round to the tolerance's grid instead, which GEOS keeps valid, and
+            # whose distinct vertices lie a grid step apart at least
+            tol = min_edge(unit)
+            snapped = [g for g in shapely.get_parts(polygonal(shapely.set_precision(geom, tol)))
+                       if g.area > min_area]
+            if not snapped:
+                raise GeometryError("the map has no free space with area") from None
+            return drop_short_edges(cls._from_parts(snapped, unit), drop_vanishing=True)
+
+    @classmethod
+    def _from_parts(cls, polys: list, unit: str) -> "BRepMap":
         polys.sort(key=lambda g: -g.area)
         regions = []
         for g in polys:
@@ -212,6 +274,49 @@ class BRepMap:
             and [len(r.holes) for r in self.regions] == [len(r.holes) for r in other.regions]
             and all(a.equals_exactly(b) for a, b in zip(self.rings, other.rings))
         )
+
+
+def drop_short_edges(crisp: BRepMap, tol: float | None = None, *, drop_vanishing: bool = False) -> BRepMap:
+    """The map with every edge shorter than ``tol`` (default ``min_edge(crisp.unit)``) merged away
+    (``Ring.without_short_edges``); ``crisp`` itself when it has none. GeometryError naming the
+    ring if a changed ring or its region is no longer valid (a ring of a few short edges would
+    vanish, or a vertex lay within ``tol`` of another edge). ``drop_vanishing``: a hole that would
+    vanish (fewer than 3 vertices left, or no area) is dropped instead."""
+    tol = min_edge(crisp.unit) if tol is None else tol
+    names = crisp.ring_names()
+    regions, changed, k = [], False, 0
+    for region in crisp.regions:
+        region_names = names[k:k + len(region.rings)]
+        k += len(region.rings)
+        rings = [r.without_short_edges(tol) for r in region.rings]
+        if drop_vanishing:
+            gone = [j for j in range(1, len(rings)) if len(rings[j]) < 3 or rings[j].signed_area >= 0]
+            rings = [r for j, r in enumerate(rings) if j not in gone]
+            region_names = [n for j, n in enumerate(region_names) if j not in gone]
+            region_rings = [r for j, r in enumerate(region.rings) if j not in gone]
+            changed = changed or bool(gone)
+        else:
+            region_rings = list(region.rings)
+        moved = [a is not b for a, b in zip(rings, region_rings)]
+        if not any(moved):
+            regions.append(Region(rings[0], tuple(rings[1:])) if len(rings) != len(region.rings) else region)
+            continue
+        changed = True
+        for name, r, m in zip(region_names, rings, moved):
+            if m:
+                if len(r) < 3:
+                    raise GeometryError(f"made of edges shorter than {tol:g} {crisp.unit}: nothing is left once "
+                                        f"they are merged away", ring=name)
+                validate_ring(r.vertices, name)
+        new = Region(rings[0], tuple(rings[1:]))
+        check_region(new, region_names)
+        regions.append(new)
+    return BRepMap(tuple(regions), crisp.unit) if changed else crisp
+
+
+def shortest_edge(crisp: BRepMap) -> float:
+    """The length of the map's shortest edge."""
+    return min(float(np.hypot(*(np.roll(r.vertices, -1, axis=0) - r.vertices).T).min()) for r in crisp.rings)
 
 
 def validate_ring(vertices: np.ndarray, name: str = "ring") -> None:

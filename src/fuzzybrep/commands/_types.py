@@ -39,3 +39,23 @@ def file_name(s: str) -> str:
     if not re.fullmatch(r"[A-Za-z0-9_.-]+", s) or s in (".", ".."):
         raise argparse.ArgumentTypeError(f"name must be a plain file name (letters, digits, _ . -), got {s!r}")
     return s
+
+
+class _Georef(argparse.Action):
+    """--georef LON LAT HEADING: three finite numbers, LON in [−180, 180], LAT in (−90, 90)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from ..formats.georef import check_georef
+
+        try:
+            check_georef(*values)
+        except ValueError as e:
+            parser.error(f"argument --georef: {str(e).removeprefix('--georef: ')}")
+        setattr(namespace, self.dest, tuple(values))
+
+
+def add_georef_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--georef", nargs=3, type=finite, action=_Georef, metavar=("LON", "LAT", "HEADING"),
+                   help="write RFC 7946 WGS 84 lon/lat: the map origin's longitude and latitude (degrees) and the "
+                        "bearing of the map's x axis (degrees clockwise from north); without it the file declares "
+                        "the map's local frame (JSON-FG coordRefSys)")

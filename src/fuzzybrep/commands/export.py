@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ._maps import add_map_argument, add_method_argument, load_map
 from ._progress import steps
-from ._types import alpha, file_name, number
+from ._types import add_georef_argument, alpha, file_name, number
 
 NAME = "export"
 HELP = ("export a map: α-cuts as GeoJSON, a ROS map_server pair, Nav2 map and costmap filter masks, a ROS 2 bag, "
@@ -45,6 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     out.add_argument("--compact", metavar="OUT.fbrc",
                      help="the compact binary map a small robot stores: vertices to 1 mm as varint steps, edge "
                           "kinds, Table 4.2 (fuzzybrep.formats.compact; the fuzzy tables follow from it in O(n))")
+    add_georef_argument(p)
     p.add_argument("--alpha", type=alpha, action="append", metavar="A",
                    help="α level for --geojson, --svg, --bag and --mcap; repeat for several (default 0 0.25 0.5 0.75 1)")
     add_method_argument(p, what="α-cuts for --geojson, --svg, --bag, --mcap and the --nav2 keepout mask")
@@ -62,6 +63,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="--nav2: the speed mask's limit at the crisp boundary, percent of the maximum (default 30)")
     p.add_argument("--bag-storage", choices=("mcap", "sqlite3"), default="mcap",
                    help="--bag: the ROS 2 bag's storage (default mcap)")
+    p.add_argument("--ros-distro", choices=("humble", "jazzy"), default="humble",
+                   help="--bag: the ROS 2 release whose rosbag2 reads it: humble (metadata version 5, QoS profiles "
+                        "as a string; Jazzy reads it too: the default) or jazzy (version 9)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -140,7 +144,11 @@ def run(args: argparse.Namespace) -> int:
             svg = svg_document(fuzzy, cuts, support, title=Path(args.map).name).encode("utf-8")
         if args.geojson:
             step(f"writing {args.geojson}")
-            n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts))
+            try:
+                n = write_geojson(args.geojson, crisp_features(fuzzy.crisp) + alpha_cut_features(cuts),
+                                  unit=fuzzy.unit, georef=args.georef)
+            except ValueError as e:
+                raise MapFileError(args.geojson, str(e)) from None
             print(f"{args.geojson}: {n} bytes (crisp map and {len(cuts)} α-cuts at α = "
                   f"{', '.join(f'{a:g}' for a in alphas)}, {args.method})")
         if raster is not None:
@@ -165,8 +173,8 @@ def run(args: argparse.Namespace) -> int:
             from ..formats.ros2bag import write_bag
 
             step(f"writing {args.bag}")
-            write_bag(args.bag, fuzzy, raster, cuts, args.bag_storage, scale=k)
-            print(f"{args.bag}: ROS 2 bag ({args.bag_storage}): /map OccupancyGrid, /map_boundary MarkerArray "
+            write_bag(args.bag, fuzzy, raster, cuts, args.bag_storage, scale=k, distro=args.ros_distro)
+            print(f"{args.bag}: ROS 2 bag ({args.bag_storage}, for {args.ros_distro} and newer): /map OccupancyGrid, /map_boundary MarkerArray "
                   f"(crisp boundary, frontier edges, {len([c for c in cuts if c.alpha < 1])} α-cuts), latched")
         if args.mcap:
             from ..formats.foxglove_mcap import write_mcap

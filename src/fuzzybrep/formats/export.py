@@ -30,6 +30,7 @@ from pathlib import Path
 from ..brep import BRepMap
 from .files import write_atomic
 from .geojson import alpha_cut_collection, geometry_json
+from .georef import georeference, local_crs
 from .raster import (FREE_GREY, FREE_STEPS, OCCUPIED_GREY, OCCUPIED_STEPS, UNKNOWN_GREY, MembershipRaster, grey_levels,
                      membership_raster, mu_from_grey)
 from .rosmap import FREE_THRESH, OCCUPIED_THRESH, write_ros_map
@@ -72,9 +73,27 @@ def alpha_cut_features(cuts) -> list[dict]:
     return alpha_cut_collection(cuts)["features"]
 
 
-def write_geojson(path: str | os.PathLike, features: list[dict], **extra) -> int:
-    """A FeatureCollection written atomically; returns bytes written."""
-    return write_atomic(path, json.dumps(feature_collection(features, **extra), separators=(",", ":")).encode())
+def write_geojson(path: str | os.PathLike, features: list[dict], *, unit: str | None = None,
+                  georef: tuple[float, float, float] | None = None, **extra) -> int:
+    """A FeatureCollection written atomically; returns bytes written. ``unit``: the map's, declared
+    as its local frame (``georef.local_crs``); ``georef`` (lon, lat, heading): every position
+    turned into WGS 84 lon/lat instead (``georef.georeference``; ValueError for a unit whose
+    length in metres is not known)."""
+    fc = geojson_collection(feature_collection(features, **extra), unit, georef)
+    return write_atomic(path, json.dumps(fc, separators=(",", ":")).encode())
+
+
+def geojson_collection(fc: dict, unit: str | None, georef: tuple[float, float, float] | None = None) -> dict:
+    """``fc`` with its frame declared (``unit``) or georeferenced (``georef``), as ``write_geojson``."""
+    if georef is not None:
+        k = metres_per_unit(unit or "m")
+        if k is None:
+            raise ValueError(f"--georef needs the map's unit in metres, and {unit!r} is not m, cm or mm")
+        return georeference(fc, k, *georef)
+    if unit is None:
+        return fc
+    crs = local_crs(unit)
+    return {"type": fc["type"], **crs, **{k: v for k, v in fc.items() if k != "type"}}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -105,5 +124,5 @@ def write_ros(directory: str | os.PathLike, name: str, raster: MembershipRaster)
 __all__ = [
     "DEFAULT_ALPHAS", "FREE_GREY", "FREE_STEPS", "FREE_THRESH", "MembershipRaster", "OCCUPIED_GREY", "OCCUPIED_STEPS",
     "OCCUPIED_THRESH", "UNKNOWN_GREY", "alpha_cut_features", "coordinate_quantum", "crisp_features", "feature",
-    "feature_collection", "grey_levels", "membership_raster", "metres_per_unit", "mu_from_grey", "write_geojson", "write_ros",
+    "feature_collection", "geojson_collection", "grey_levels", "membership_raster", "metres_per_unit", "mu_from_grey", "write_geojson", "write_ros",
 ]

@@ -76,6 +76,9 @@ def read_geojson(path: str | os.PathLike, unit: str | None = None) -> BRepMap:
 
 def crisp_from_geojson(obj, unit: str | None = None) -> BRepMap:
     """The crisp map in a parsed GeoJSON object (see ``read_geojson``)."""
+    if isinstance(obj, dict) and obj.get("georef") is not None:
+        raise ValueError("georeferenced (WGS 84 longitude/latitude, written with --georef): a map is read from "
+                         "its own frame, as export --geojson writes it without --georef")
     items = list(_polygon_coords(obj))
     said = obj.get("unit") if isinstance(obj, dict) else None
     if any(props.get("role") == "crisp" for _, _, props in items):

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..brep import BRepMap, Region, Ring
-from ..errors import MapFileError
+from ..brep import BRepMap, Region, Ring, drop_short_edges, min_edge
+from ..errors import GeometryError, MapFileError
 from .compact import MAGIC, compact_from_bytes
 from .files import check_map, loads_json, read_limited, write_atomic
 
@@ -196,9 +196,20 @@ def map_from_bytes(raw: bytes, path: str | os.PathLike = "<map>") -> MapFile:
     """``read_map`` of a file's bytes already read; MapFileError names ``path``."""
 
     if raw.startswith(MAGIC):  # before: "not valid JSON ('utf-8' codec can't decode byte 0xfc ...)"
-        return MapFile(*compact_from_bytes(raw, path))
+        return _merged(MapFile(*compact_from_bytes(raw, path)), path)
     try:
         d = loads_json(raw)
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise MapFileError(path, f"not valid JSON ({e})") from None
-    return from_json(d, path)
+    return _merged(from_json(d, path), path)
+
+
+def _merged(m: MapFile, path) -> MapFile:
+    """The map read with its edges shorter than ``min_edge`` merged away (a file written before
+    they were, or by hand); MapFileError naming the ring if that leaves it invalid."""
+    try:
+        crisp = drop_short_edges(m.crisp)
+    except GeometryError as e:
+        raise MapFileError(path, f"{e} (edges shorter than {min_edge(m.crisp.unit):g} {m.crisp.unit} are merged away "
+                                 f"when a map is read)") from None
+    return m if crisp is m.crisp else replace(m, crisp=crisp)

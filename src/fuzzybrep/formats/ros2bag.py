@@ -12,6 +12,16 @@ subscriber joining after the bag started still gets them when the bag is played:
   namespace ``frontier``, one LINE_LIST of the frontier edges; and per α below 1 namespaces
   ``alpha-A-inner`` and ``alpha-A-outer``, one LINE_STRIP a ring of the α-cut's polygons.
 
+Which ROS 2 reads it (``distro``): rosbag2's ``metadata.yaml`` changed shape between releases.
+Jazzy writes version 9, whose topics' ``offered_qos_profiles`` is a YAML list; Humble (the LTS
+release most robots run until 2027) writes version 5 and reads ``offered_qos_profiles`` as a
+YAML *string* (a serialized list), so it fails on a version 9 file. ``humble`` (the default)
+writes version 5 with string QoS profiles and none of the keys later versions added
+(``custom_data``, ``ros_distro``, ``type_description_hash``): Jazzy and newer read older
+versions too, so this is the bag both read. ``jazzy`` writes version 9. Humble has no MCAP storage
+plugin unless ``ros-humble-rosbag2-storage-mcap`` is installed: ``--bag-storage sqlite3`` is its
+default storage.
+
 No ``geometry_msgs/msg/PolygonStamped``: it holds one ring, and a latched topic keeps one message,
 so a map of many rings would need a topic a ring; the markers carry every ring with its role.
 """
@@ -29,6 +39,10 @@ from .nav2 import map_values
 from .rings import layers
 
 STORAGES = ("mcap", "sqlite3")
+#: ROS 2 releases whose rosbag2 the bag is written for, and the metadata version each writes
+DISTROS = {"humble": 5, "jazzy": 9}
+#: metadata keys added after version 5 (Humble's), left out of a Humble bag
+_AFTER_V5 = ("custom_data", "ros_distro")
 MAP_TOPIC, BOUNDARY_TOPIC, FRAME = "/map", "/map_boundary", "map"
 OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
@@ -64,14 +78,18 @@ def _marker(T, **fields):
         mesh_file=T["visualization_msgs/msg/MeshFile"](filename="", data=empty), mesh_use_embedded_materials=False)
 
 
-def write_bag(path: str | os.PathLike, fuzzy, raster, cuts, storage: str = "mcap", *, scale: float = 1.0) -> Path:
-    """Write the bag folder ``path`` (module doc). ``scale``: metres per map unit. Written into a
-    temporary folder beside it and renamed, so a failure leaves nothing half-written; an existing
-    bag at ``path`` is replaced only once the new one is complete."""
+def write_bag(path: str | os.PathLike, fuzzy, raster, cuts, storage: str = "mcap", *, scale: float = 1.0,
+              distro: str = "humble") -> Path:
+    """Write the bag folder ``path`` (module doc). ``scale``: metres per map unit; ``distro``: the
+    ROS 2 release whose rosbag2 reads it (``DISTROS``). Written into a temporary folder beside it
+    and renamed, so a failure leaves nothing half-written; an existing bag at ``path`` is replaced
+    only once the new one is complete."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     if storage not in STORAGES:
         raise ValueError(f"storage must be one of {', '.join(STORAGES)}, got {storage!r}")
+    if distro not in DISTROS:
+        raise ValueError(f"ROS 2 distribution must be one of {', '.join(DISTROS)}, got {distro!r}")
     path = Path(path)
     ts = _typestore()
     T = ts.types
@@ -119,11 +137,14 @@ def write_bag(path: str | os.PathLike, fuzzy, raster, cuts, storage: str = "mcap
     tmp = work / path.name
     try:
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-        with Writer(tmp, version=Writer.VERSION_LATEST, storage_plugin=plugin) as bag:
+        # rosbags writes versions 8 and 9; 8 holds the QoS profiles as a string, as Humble's 5 does
+        with Writer(tmp, version=9 if distro == "jazzy" else 8, storage_plugin=plugin) as bag:
             qos = [latched_qos()]
             for topic, msgtype, msg in ((MAP_TOPIC, OCCUPANCY_GRID, grid), (BOUNDARY_TOPIC, MARKER_ARRAY, array)):
                 conn = bag.add_connection(topic, msgtype, typestore=ts, offered_qos_profiles=qos)
                 bag.write(conn, 0, ts.serialize_cdr(msg, msgtype))
+        if distro == "humble":
+            _as_version_5(tmp / "metadata.yaml")
         if path.is_dir():
             old = path.with_name(f".{path.name}.{os.getpid()}.old")
             path.rename(old)
@@ -138,4 +159,24 @@ def write_bag(path: str | os.PathLike, fuzzy, raster, cuts, storage: str = "mcap
     return path
 
 
-__all__ = ["BOUNDARY_TOPIC", "FRAME", "MAP_TOPIC", "STORAGES", "latched_qos", "write_bag"]
+def _as_version_5(meta: Path) -> None:
+    """Rewrite a version 8 ``metadata.yaml`` in the shape Humble's rosbag2 writes (version 5):
+    the same fields less the ones later versions added; QoS profiles stay YAML strings."""
+    from ruamel.yaml import YAML
+
+    yaml = YAML(typ="safe")
+    yaml.default_flow_style = False
+    doc = yaml.load(meta.read_text())
+    info = doc["rosbag2_bagfile_information"]
+    info["version"] = DISTROS["humble"]
+    for key in _AFTER_V5:
+        info.pop(key, None)
+    for t in info.get("topics_with_message_count", []):
+        t["topic_metadata"].pop("type_description_hash", None)
+        if not isinstance(t["topic_metadata"].get("offered_qos_profiles"), str):
+            raise AssertionError("rosbags wrote the QoS profiles of a version 8 bag as a list")
+    with meta.open("w") as fh:
+        yaml.dump(doc, fh)
+
+
+__all__ = ["BOUNDARY_TOPIC", "DISTROS", "FRAME", "MAP_TOPIC", "STORAGES", "latched_qos", "write_bag"]

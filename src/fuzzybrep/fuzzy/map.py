@@ -35,7 +35,7 @@ from functools import cached_property
 import numpy as np
 import shapely
 
-from ..brep import LARGEST, BRepMap, Ring, frontier_fm, validate_map
+from ..brep import LARGEST, BRepMap, Ring, drop_short_edges, frontier_fm, validate_map
 from ..errors import GeometryError, MapFileError, MembershipFunctionError
 from ..formats.mapfile import MapFile, read_map, write_map
 from ..geometry import polygonal
@@ -345,7 +345,8 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
                  199.13 mm, i.e. 0.19913 for a map in metres (``default_tme``).
     frontier_mf  optional function for frontier edges: added to the table, and given to every
                  vertex that touches a frontier edge (a frontier's position is less certain).
-    validate     refuse degenerate or self-intersecting rings (GeometryError names the vertex).
+    validate     refuse degenerate or self-intersecting rings (GeometryError names the vertex),
+                 and merge edges shorter than ``brep.min_edge`` away (``brep.drop_short_edges``).
 
     Either order of ring vertices works: IN is the inside of each ring, whatever its orientation.
     """
@@ -358,6 +359,7 @@ def fuzzify(crisp: BRepMap, mf: MembershipFunction | MembershipTable | dict | li
     names = crisp.ring_names()
     if validate:
         validate_map(crisp)
+        crisp = drop_short_edges(crisp)  # edges shorter than brep.min_edge: no direction to sweep along
     rings = crisp.rings
     sizes = np.array([len(r) for r in rings])
     fm = np.concatenate([r.fm for r in rings])

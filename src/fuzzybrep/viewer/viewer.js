@@ -85,6 +85,9 @@
      discs); pEdge: the edge (or, for a fan, the edge its corner starts) the index finds it by. */
   const pBase = [], pUx = [], pUy = [], pStart = [0], pSide = [], pEdge = [], pFree = [], pObst = [];
   function addPiece(corners, side, edge, free, obst) {
+    // a corner it cannot compute (NaN) would end the path's text at "NaN", and the browser drops
+    // the rest of the path without a word: such a piece is left out
+    if (!corners.every(([, ux, uy]) => Number.isFinite(ux) && Number.isFinite(uy))) return;
     let a2 = 0;
     for (let c = 0; c < corners.length; c++) {
       const [b, ux, uy] = corners[c], [b2, vx, vy] = corners[(c + 1) % corners.length];
@@ -98,9 +101,16 @@
   if (SAFE) {
     const capK = 1 / Math.cos(Math.PI / 8);
     for (let i = 0; i < N; i++) {
-      const j = next[i], p = prev[i], r = ringOf[i], o = orient[r], shell = shellRing[r] === 1;
+      const j = next[i], r = ringOf[i], o = orient[r], shell = shellRing[r] === 1;
       let tx = X[j] - X[i], ty = Y[j] - Y[i];
-      const len = Math.hypot(tx, ty); tx /= len; ty /= len;
+      const len = Math.hypot(tx, ty);
+      // an edge the millimetre rounding made a point (maps keep edges of 1 mm and more, which a
+      // diagonal can still round away) has no direction: it is skipped, and the corner after it
+      // turns from the edge before it
+      if (!(len > 0)) continue;
+      tx /= len; ty /= len;
+      let p = prev[i];
+      while (p !== i && X[p] === X[i] && Y[p] === Y[i]) p = prev[p];
       if (!uniform) { // the edge's stadium: caps of 4 tangent segments at b and at a
         const corners = [];
         for (let q = 0; q < 4; q++) {
@@ -284,6 +294,7 @@
       for (let i = 0; i < N; i++) {
         const s = side > 0 ? -dIn[slot[i]] / SI[i] : dOut[slot[i]] / SI[i];
         ox[i] = X[i] + T[i] * s; oy[i] = Y[i] + V[i] * s;
+        if (!Number.isFinite(ox[i]) || !Number.isFinite(oy[i])) { ox[i] = X[i]; oy[i] = Y[i]; } // never "NaN" in a path
         txt[i] = text(ox[i], oy[i]);
         moved[i] = s !== 0;
       }
