@@ -218,3 +218,32 @@ def test_tables_lists_the_rings_once_and_every_table_is_its_rings(tmp_path, caps
         t = fz.vertex_table(k)
         np.testing.assert_array_equal(np.column_stack((t["X"], t["Y"])), ring.vertices)
         assert len(fz.edge_table(k)["EDGE"]) == len(ring)
+
+
+def test_geojson_positions_must_be_json_numbers(tmp_path):
+    """A boolean or a string where GeoJSON holds a coordinate is refused naming the vertex
+    (Python's float() takes true and "1.5")."""
+    import json as _json
+
+    from fuzzybrep.errors import MapFileError
+    from fuzzybrep.formats.geojson import read_geojson
+
+    ring = [[0, 0], [4, 0], [4, 3], [0, 3], [0, 0]]
+    for bad, vertex in ((True, 2), ("1.5", 3)):
+        r = [list(p) for p in ring]
+        r[vertex - 1][0] = bad
+        f = tmp_path / "plan.geojson"
+        f.write_text(_json.dumps({"type": "Polygon", "coordinates": [r]}))
+        with pytest.raises(MapFileError, match=rf"vertex {vertex}"):
+            read_geojson(f)
+    f.write_text(_json.dumps({"type": "Polygon", "coordinates": [ring]}))
+    assert read_geojson(f).area == pytest.approx(12.0)
+
+
+def test_geojson_from_a_device_is_read_with_a_bound(monkeypatch):
+    """demo --world /dev/zero: the size (0) says nothing; the read stops past the limit."""
+    from fuzzybrep.formats import geojson as G
+
+    monkeypatch.setattr(G, "MAX_GEOJSON_BYTES", 2**20)
+    with pytest.raises(G.FormatLimitError, match="more than 1 MiB"):
+        G.geojson_text("/dev/zero")

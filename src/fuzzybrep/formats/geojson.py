@@ -13,7 +13,6 @@ the map's unit unless the caller says otherwise. The α-cut collections fuzzybre
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -22,7 +21,6 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from ..arrays import is_float
 from ..brep import BRepMap, locate_vertex, validate_ring
 from ..errors import FormatLimitError, GeometryError, MapFileError
 from .files import loads_json
@@ -45,7 +43,12 @@ def geojson_text(path: str | os.PathLike) -> str:
     size = path.stat().st_size
     if size > MAX_GEOJSON_BYTES:
         raise FormatLimitError(f"the file is {size / 2**20:.0f} MiB; GeoJSON is read up to {MAX_GEOJSON_BYTES // 2**20} MiB")
-    raw = path.read_bytes()
+    # a device or a FIFO says size 0: read a chunk at a time, one byte past the limit at most
+    with path.open("rb") as fh:
+        raw = fh.read(MAX_GEOJSON_BYTES + 1)
+    if len(raw) > MAX_GEOJSON_BYTES:
+        raise FormatLimitError(f"the file holds more than {MAX_GEOJSON_BYTES // 2**20} MiB; GeoJSON is read up to "
+                               f"{MAX_GEOJSON_BYTES // 2**20} MiB")
     brackets = raw.count(b"[")
     if brackets > MAX_GEOJSON_POSITIONS + 1000:  # every position has one; rings and polygons a few more
         raise FormatLimitError(f"the file holds about {brackets} positions; GeoJSON is read with up to "
@@ -154,10 +157,10 @@ def _ring(coords, name: str) -> np.ndarray:
     for j, pos in enumerate(coords):
         if not isinstance(pos, (list, tuple)) or len(pos) < 2:
             raise GeometryError(f"position {pos!r} is not [x, y]", ring=name, vertex=j + 1)
-        try:
-            x, y = float(pos[0]), float(pos[1])
-        except (TypeError, ValueError):
-            raise GeometryError(f"position {pos!r} is not [x, y] numbers", ring=name, vertex=j + 1) from None
+        # JSON numbers only: float() would take true (a bool is an int in Python) and "1.5"
+        if not all(type(v) in (int, float) for v in pos[:2]):
+            raise GeometryError(f"position {pos!r} is not [x, y] numbers", ring=name, vertex=j + 1)
+        x, y = float(pos[0]), float(pos[1])
         if not (math.isfinite(x) and math.isfinite(y)):
             raise GeometryError("coordinate is not finite", ring=name, vertex=j + 1)
         out[j] = x, y
@@ -201,39 +204,3 @@ def alpha_cut_collection(cuts, crisp: BRepMap | None = None) -> dict:
                              "properties": {"role": role, "alpha": c.alpha, "method": c.method, "unit": c.unit},
                              "geometry": geometry_json(g)})
     return {"type": "FeatureCollection", "features": features}
-
-
-def read_points(path: str | os.PathLike) -> np.ndarray:
-    """(m, 2) points from a CSV file: two columns x, y (more are ignored), header optional; at
-    least one point. A header naming columns x and y says where they are (``id,x,y``)."""
-    path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8-sig") as fh:  # -sig: a spreadsheet's byte-order mark
-            rows = list(csv.reader(fh))
-    except (OSError, UnicodeDecodeError) as e:
-        raise MapFileError(path, f"cannot read: {getattr(e, 'strerror', None) or e}") from None
-    pts = []
-    first = True
-    ix, iy = 0, 1
-    for line, row in enumerate(rows, 1):
-        cells = [c.strip() for c in row]
-        if not cells or not any(cells) or cells[0].startswith("#"):
-            continue
-        header, first = first, False
-        if header and not any(is_float(c) for c in cells[:2]):  # a header line such as "x,y"
-            names = [c.lower() for c in cells]
-            if "x" in names and "y" in names:  # "id,x,y" or "y,x": read by name, not by place
-                ix, iy = names.index("x"), names.index("y")
-            continue
-        if len(cells) <= max(ix, iy):
-            raise MapFileError(path, f"line {line}: expected x,y, got {','.join(cells)!r}")
-        try:
-            x, y = float(cells[ix]), float(cells[iy])
-        except ValueError:
-            raise MapFileError(path, f"line {line}: x,y must be numbers, got {cells[ix]!r}, {cells[iy]!r}") from None
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise MapFileError(path, f"line {line}: x,y must be finite")
-        pts.append((x, y))
-    if not pts:  # an empty query is a mistake (a wrong file), not a question with no answers
-        raise MapFileError(path, "no x,y points in the file")
-    return np.array(pts, dtype=np.float64)
