@@ -161,6 +161,9 @@ def test_align_reports_odometry_that_stopped_for_thirty_scans(real_scans):
     result = A.align_scans(scans, odometry=np.array(odo))
     assert result.check is not None and not result.check.ok
     assert result.metadata()["check"]["ok"] is False
+    # the loop edges' disagreement with the solved poses is kept too, in standard deviations
+    assert len(result.loop_chi) and np.all(np.isfinite(result.loop_chi)) and np.all(result.loop_chi >= 0)
+    assert result.metadata()["loop_residuals"]["edges"] == len(result.loop_chi)
     assert result.check.spans
 
 

@@ -160,7 +160,9 @@ def run(args) -> int:
         al = result.alignment
         poor = al.poor()
         align_notes.append(f"--align: {len(scans)} scans aligned from odometry, {al.loops} loop closure(s); "
-                           f"median match {100 * float(np.median(al.quality.inliers)):.0f} % of returns")
+                           f"median match {100 * float(np.median(al.quality.inliers)):.0f} % of returns"
+                           + (f"; {100 * float((al.loop_chi > 3).mean()):.1f} % of the loop edges disagree with the "
+                              f"solved poses by over 3σ" if len(al.loop_chi) else ""))
         if al.calibration is not None and al.calibration.steps:
             align_notes.append(f"--align: {al.calibration.describe()}, taken out of every step")
         if al.check is not None:

@@ -37,7 +37,7 @@ corridor's length); ``AlignResult.poor`` lists the scans below ``poor_inliers`` 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
@@ -76,6 +76,8 @@ class AlignResult:
     calibration: OdometryCalibration | None = None
     #: the aligned poses checked against the scans (``registration.check``; None: not checked)
     check: AlignmentCheck | None = None
+    #: per loop edge, its disagreement with the solved poses in its own standard deviations
+    loop_chi: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def poor(self) -> np.ndarray:
         """Indices of the scans whose alignment is poor (``AlignConfig.poor_*``)."""
@@ -90,6 +92,9 @@ class AlignResult:
                "inliers": np.round(q.inliers, 4).tolist(), "sigma": np.round(q.sigma, 4).tolist()}
         if self.check is not None:
             out["check"] = self.check.metadata()
+        if len(self.loop_chi):
+            out["loop_residuals"] = {"edges": int(len(self.loop_chi)), "median_sigma": round(float(np.median(self.loop_chi)), 3),
+                                     "beyond_3_sigma": round(float((self.loop_chi > 3).mean()), 4)}
         if self.calibration is not None:
             kappa, c = self.calibration.kappa_c
             out["odometry_error"] = {"distance": round(self.calibration.a, 5), "heading_deg_per_m": round(math.degrees(kappa), 4),
@@ -304,8 +309,14 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
         loops += added  # the local edges tie a scan to its own stretch: not loops
         poses = pose_graph.solve(poses, *(np.array(e) for e in edges))
         optimisations += 1
-    return AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
-                       calibration if cfg.calibrate else None)
+    result = AlignResult(poses, ScanQuality(inliers, sigma, matches), loops, optimisations, cfg,
+                         calibration if cfg.calibrate else None)
+    r = np.asarray(robust, bool)
+    if r.any():
+        # how far each loop edge is from the solved poses, in its own standard deviations
+        e = pose_graph.residuals(poses, np.asarray(ei)[r], np.asarray(ej)[r], np.asarray(ez)[r])
+        result.loop_chi = np.sqrt(np.einsum("ea,eab,eb->e", e, np.asarray(einfo)[r], e))
+    return result
 
 
 def _direction(recent: list, cfg: AlignConfig) -> bool | None:
