@@ -74,7 +74,7 @@ class LocaliseConfig:
     smooth          run the RTS smoother over the filter (False: the online filter's poses)
     update_distance, update_turn   global search: a scan whose odometry moved less than this
                     (map unit) and turned less than this (radians) since the last filter update
-                    does not update the filter (AMCL's update_min_d 0.2 m and update_min_a π/6)
+                    does not update the filter (ROS 1 amcl's update_min_d 0.2 m and update_min_a π/6)
     max_updates     global search: filter updates without converging before it gives up
                     (``LocalisationError``)
     """
