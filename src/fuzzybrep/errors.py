@@ -37,6 +37,10 @@ class AlignmentError(FuzzyBrepError):
     log and the spans of it that failed."""
 
 
+class LocalisationError(FuzzyBrepError):
+    """``localise --global`` gave up: its search reached its bound without converging."""
+
+
 class GeometryError(FuzzyBrepError, ValueError):
     """A polygon is degenerate or self-intersecting: names the ring and the vertex."""
 

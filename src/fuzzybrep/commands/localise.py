@@ -8,7 +8,11 @@ from pathlib import Path
 
 from ._logopts import add_log_arguments, read_log, read_notes
 from ._maps import add_map_argument
-from ._types import finite, seed
+from ._types import finite, number, seed
+
+#: ``--max-updates``: a whole number ≥ 1
+updates_bound = number(lambda n: n >= 1, "--max-updates must be a whole number, got {text!r}",
+                       "--max-updates must be ≥ 1, got {text}", cast=int)
 
 NAME = "localise"
 #: how far outside the map's free space a start may lie (map unit)
@@ -28,14 +32,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--global", dest="global_search", action="store_true",
                    help="no start: search the map's free space (Monte Carlo localisation) until one pose "
                         "explains the scans, then track; says at which scan it converged, or that it did not")
+    p.add_argument("--max-updates", type=updates_bound, default=None, metavar="N",
+                   help="--global gives up (exit 2, nothing written) after N filter updates without converging; "
+                        "the filter updates only after 0.2 m or 30° of odometry (default 100)")
     p.add_argument("--online", action="store_true",
                    help="the filter's poses as a robot would have them then (default: smoothed, each pose "
                         "also using the scans after it)")
     p.add_argument("--seed", type=seed, default=0, help="random seed of the particles and local searches (default 0)")
     p.add_argument("--plot", metavar="FIG", help="picture of the track over the map, coloured by confidence")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
-    p.epilog = ("Exit status 0: localised; 1: --global did not converge (the track is written, every pose the "
-                "search's best guess with confidence 0); 2: bad input.")
+    p.epilog = ("Exit status 0: localised; 1: --global did not converge by the end of the log (the track is "
+                "written, every pose the search's best guess with confidence 0); 2: bad input, or --global reached "
+                "its bound of filter updates without converging (nothing written).")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -45,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from ..errors import MapFileError, ScanValueError
+    from ..errors import LocalisationError, MapFileError, ScanValueError
     from ..formats.files import check_outputs
     from ..use.localise import CONFIG, STATUS_NAMES, TRACKED, localise
     from ..use.sensor_model import SensorModel
@@ -78,14 +86,17 @@ def run(args: argparse.Namespace) -> int:
                              f"{where} ({start[0]:g}, {start[1]:g}) lies more than {START_SLACK_M:g} m outside "
                              f"the free space of the map {args.map}: give --start X Y THETA on the map, or "
                              f"--global to search for it")
-    cfg = replace(CONFIG, smooth=not args.online)
+    cfg = replace(CONFIG, smooth=not args.online, max_updates=args.max_updates or CONFIG.max_updates)
     t1 = time.perf_counter()
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), console=console, transient=True,
                   disable=args.quiet or len(scans) < 200) as bar:
         task = bar.add_task("global search" if args.global_search else "tracking", total=len(scans))
-        track = localise(model, scans, start=start, global_search=args.global_search, config=cfg, seed=args.seed,
-                         progress=lambda done, total: bar.update(task, completed=done))
+        try:
+            track = localise(model, scans, start=start, global_search=args.global_search, config=cfg, seed=args.seed,
+                             progress=lambda done, total: bar.update(task, completed=done))
+        except LocalisationError as e:  # the bound: nothing is written
+            raise LocalisationError(f"{args.log}: {e}") from None
     t2 = time.perf_counter()
     nbytes = track.write_csv(args.out)
     if args.plot:

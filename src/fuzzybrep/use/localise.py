@@ -72,6 +72,11 @@ class LocaliseConfig:
     beams           endpoints a particle is weighed with (a subsample of the scan's returns)
     tolerance       an alignment stops when an iteration moves less than this
     smooth          run the RTS smoother over the filter (False: the online filter's poses)
+    update_distance, update_turn   global search: a scan whose odometry moved less than this
+                    (map unit) and turned less than this (radians) since the last filter update
+                    does not update the filter (ROS 1 amcl's update_min_d 0.2 m and update_min_a π/6)
+    max_updates     global search: filter updates without converging before it gives up
+                    (``LocalisationError``)
     """
 
     kernel: float = 0.75
@@ -96,6 +101,9 @@ class LocaliseConfig:
     beams: int = 60
     tolerance: float = 1e-3
     smooth: bool = True
+    update_distance: float = 0.2
+    update_turn: float = math.pi / 6
+    max_updates: int = 100
 
 
 CONFIG = LocaliseConfig()
@@ -115,6 +123,7 @@ class Track:
     converged_at  the scan at which global localisation converged (0 when tracking from a start;
                 None when it never did)
     offset      the range offset estimated between the laser and the map
+    search_updates  the global search's filter updates (0 without it)
     notes       what the user should know, one line each
     """
 
@@ -125,6 +134,7 @@ class Track:
     converged_at: int | None
     offset: float = 0.0
     notes: tuple[str, ...] = ()
+    search_updates: int = 0
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -174,7 +184,10 @@ def localise(fuzzy_map, scans: list[Scan], odometry: np.ndarray | None = None, *
                    used); default ``laser_odometry(scans)``: the log's odometry, else its poses.
     start          (3,) the first scan's pose; default the log's first pose. Ignored with
                    ``global_search``.
-    global_search  no start: Monte Carlo localisation over the map's free space first.
+    global_search  no start: Monte Carlo localisation over the map's free space first; it updates
+                   only after the robot moved (``config.update_distance``, ``update_turn``) and
+                   raises ``LocalisationError`` after ``config.max_updates`` updates without
+                   converging.
     seed           for the particles and the local searches (equal seeds, equal tracks).
     progress       called as progress(done, total) after every scan.
     """
@@ -190,18 +203,18 @@ def localise(fuzzy_map, scans: list[Scan], odometry: np.ndarray | None = None, *
     X, P, Xp, Pp, F = np.zeros((S, 3)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 3, 3)), np.zeros((S, 3, 3))
     notes: list[str] = []
     tracker = Tracker(model, cfg, rng)
-    k0 = 0
+    k0 = updates = 0
     if global_search:
         from .mcl import global_localise
 
-        k0, first, guesses = global_localise(model, scans, odo, cfg, rng, tracker, progress)
+        k0, first, guesses, updates = global_localise(model, scans, odo, cfg, rng, tracker, progress)
         X[:k0] = guesses
         status[:k0] = SEARCHING
         if first is None:
             notes.append(f"global localisation did not converge in {S} scans: every pose is the particles' best "
                          f"guess, with confidence 0")
-            return Track(times, X, np.zeros(S), status, None, tracker.offset, tuple(notes))
-        notes.append(f"global localisation converged at scan {k0 + 1} of {S}")
+            return Track(times, X, np.zeros(S), status, None, tracker.offset, tuple(notes), updates)
+        notes.append(f"global localisation converged at scan {k0 + 1} of {S}, after {updates} filter updates")
         x0 = first.pose
         P0 = np.linalg.inv(first.information + 1e-9 * np.eye(3)) + np.diag([cfg.match_sigma, cfg.match_sigma,
                                                                              cfg.match_heading]) ** 2
@@ -235,7 +248,7 @@ def localise(fuzzy_map, scans: list[Scan], odometry: np.ndarray | None = None, *
     if lost:
         notes.append(f"{lost} of {S} scans agreed with no alignment to the map and kept the predicted pose "
                      f"(status lost)")
-    return Track(times, poses, conf, status, k0, tracker.offset, tuple(notes))
+    return Track(times, poses, conf, status, k0, tracker.offset, tuple(notes), updates)
 
 
 def grades(model: SensorModel, scans: list[Scan], poses: np.ndarray, offset: float = 0.0) -> np.ndarray:

@@ -12,11 +12,15 @@ scores), and keeps the best, apart from each other, as hypotheses (``PROPOSALS``
 aligned to the map (``align``), which moves it onto its local optimum, and then followed scan by
 scan like a tracked pose: moved by the odometry, aligned again, scored by the likelihood of the
 scan at its pose (σ = TME/2, the endpoints counting as ``INDEPENDENT_BEAMS`` independent ones).
-Every scan adds the best of a fresh draw (``REFRESH`` particles, ``NEW_PROPOSALS`` kept), so a
-pose the first draw missed can still be found. Converged: a hypothesis followed for ``PERSIST``
-scans whose mean grade is at least ``MIN_GRADE`` leads every other hypothesis more than 1 m or
-20° away by ``MARGIN`` (log-likelihood over its last ``PERSIST`` scans); tracking continues from
-it. Plain particle filtering (the same particles resampled scan by scan) was measured first and
+Every update adds the best of a fresh draw (``REFRESH`` particles, or as many as the first draw
+when that is fewer; ``NEW_PROPOSALS`` kept), so a pose the first draw missed can still be found.
+As AMCL (update_min_d, update_min_a), the filter updates only after the odometry moved
+``update_distance`` or turned ``update_turn`` since the last update (a robot standing still
+learns nothing new from scan after scan, and the update is the costly part: about a second on
+Intel), and the search gives up after ``max_updates`` updates (``LocalisationError``).
+Converged: a hypothesis followed for ``PERSIST`` updates whose mean grade is at least
+``MIN_GRADE`` leads every other hypothesis more than 1 m or 20° away by ``MARGIN``
+(log-likelihood over its last ``PERSIST`` updates); tracking continues from it. Plain particle filtering (the same particles resampled scan by scan) was measured first and
 lost the true pose within two scans of 2 m on ACES: docs/localise.md.
 """
 
@@ -27,6 +31,7 @@ import math
 import numpy as np
 
 from ..scans.scan import compose, relative, wrap
+from ..errors import LocalisationError
 from .sensor_model import SensorModel, sensor_points
 
 PARTICLES_PER_M2 = 200.0
@@ -75,11 +80,16 @@ def local_search(model: SensorModel, pts: np.ndarray, pred: np.ndarray, cov: np.
     return list(out)
 
 
+def _first_draw(model: SensorModel) -> int:
+    """The particles of the first draw: ``PARTICLES_PER_M2`` of the free space, within bounds."""
+    return int(min(max(PARTICLES_PER_M2 * model.free_space.area, MIN_PARTICLES), MAX_PARTICLES))
+
+
 def initial_particles(model: SensorModel, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
     """Particles uniform over the map's free space, headings uniform; as many as its area asks
     for (``PARTICLES_PER_M2``) unless ``n`` says."""
     if n is None:
-        n = int(min(max(PARTICLES_PER_M2 * model.free_space.area, MIN_PARTICLES), MAX_PARTICLES))
+        n = _first_draw(model)
     xy = model.sample_free(n, rng)
     return np.column_stack((xy, rng.uniform(-math.pi, math.pi, len(xy))))
 
@@ -118,19 +128,34 @@ class _Hypothesis:
 def global_localise(model: SensorModel, scans, odo: np.ndarray, cfg, rng: np.random.Generator, tracker, progress=None):
     """Global localisation from no start (module docstring).
 
-    Returns (k, alignment, guesses): the scan k at which it converged and that scan's alignment
-    (None, and k = len(scans), when it never did), and the best hypothesis's pose (S, 3) for
-    every scan before k (for every scan when it did not converge).
+    Returns (k, alignment, guesses, updates): the scan k at which it converged and that scan's
+    alignment (None, and k = len(scans), when it never did), the best hypothesis's pose (S, 3)
+    for every scan before k (for every scan when it did not converge), and the filter updates
+    made. A scan whose odometry moved less than ``cfg.update_distance`` and turned less than
+    ``cfg.update_turn`` since the last update does not update (its pose is the odometry's
+    prediction). Raises ``LocalisationError`` after ``cfg.max_updates`` updates without
+    converging.
     """
     S = len(scans)
     guesses = np.zeros((S, 3))
     hyps: list[_Hypothesis] = []
+    last = -1  # the scan of the last filter update
+    updates = 0
+    best = None
     for k in range(S):
+        if best is not None:  # AMCL's update_min_d, update_min_a: no update until the robot moved
+            step = relative(odo[last], odo[k])
+            if math.hypot(step[0], step[1]) < cfg.update_distance and abs(float(wrap(step[2]))) < cfg.update_turn:
+                guesses[k] = compose(best.pose, step)  # predicted by the odometry
+                if progress is not None:
+                    progress(k + 1, S)
+                continue
+        updates += 1
         pts = sensor_points(scans[k])
         beams = subsample(pts, cfg.beams)
         temper = max(1.0, len(beams) / INDEPENDENT_BEAMS)
-        if k and hyps:  # follow every hypothesis like a tracked pose
-            step = relative(odo[k - 1], odo[k])
+        if last >= 0 and hyps:  # follow every hypothesis like a tracked pose
+            step = relative(odo[last], odo[k])
             cov = motion_prior(step, cfg)
             info, start = np.linalg.inv(cov), tracker.start_width(cov)
             for h in hyps:
@@ -138,7 +163,7 @@ def global_localise(model: SensorModel, scans, odo: np.ndarray, cfg, rng: np.ran
                 h.alignment = tracker.align_to_map(pts, pred, info, start)
                 h.pose, h.mu = h.alignment.pose, h.alignment.mu
         # new proposals: the best of a uniform draw, weighed with a wide σ, then aligned
-        draw = initial_particles(model, rng, None if k == 0 else REFRESH)
+        draw = initial_particles(model, rng, None if k == 0 else min(REFRESH, _first_draw(model)))
         ll = model.log_likelihood(draw, beams, max(SIGMA0, model.tme))
         existing = np.array([h.pose for h in hyps]).reshape(-1, 3)
         for i in best_apart(draw, ll, PROPOSALS if k == 0 else NEW_PROPOSALS, existing):
@@ -151,14 +176,20 @@ def global_localise(model: SensorModel, scans, odo: np.ndarray, cfg, rng: np.ran
         hyps = _prune(hyps)
         best = max(hyps, key=lambda h: (len(h.scores) >= PERSIST, h.recent()))
         guesses[k] = best.pose
+        last = k
         if _converged(best, hyps):
             tracker.accept(best.alignment)
             if progress is not None:
                 progress(k + 1, S)
-            return k, best.alignment, guesses[:k]
+            return k, best.alignment, guesses[:k], updates
+        if updates >= cfg.max_updates:
+            travel = float(np.hypot(*np.diff(odo[: k + 1, :2], axis=0).T).sum())
+            raise LocalisationError(f"global localisation did not converge in {updates} filter updates (the bound; "
+                                    f"{k + 1} scans, {travel:.1f} m of odometry): the scans match no one place "
+                                    f"of the map (is the log of this map?)")
         if progress is not None:
             progress(k + 1, S)
-    return S, None, guesses
+    return S, None, guesses, updates
 
 
 def _prune(hyps: list) -> list:

@@ -35,6 +35,9 @@ from ..registration.segment_match import SegmentIndex
 SAMPLE_SPACING = 0.02
 #: an endpoint's grade when it lies beyond a frontier: neither a wall nor a contradiction
 UNKNOWN = -1.0
+#: endpoints × poses from which ``log_likelihood`` queries the KD-tree on every core (the same
+#: results; threads pay only for a global search's large draws)
+PARALLEL_QUERY = 100_000
 
 
 def map_edges(crisp: BRepMap) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -153,7 +156,10 @@ class SensorModel:
             c, s = np.cos(P[:, 2])[:, None], np.sin(P[:, 2])[:, None]
             wx = P[:, 0:1] + c * pts[:, 0] - s * pts[:, 1]
             wy = P[:, 1:2] + s * pts[:, 0] + c * pts[:, 1]
-            d, k = self.index.tree.query(np.column_stack((wx.ravel(), wy.ravel())), distance_upper_bound=reach)
+            # a global search's draw (10⁵ particles × 60 endpoints) is most of its cost: the query
+            # runs on every core then; a local search's few thousand points do not pay for threads
+            d, k = self.index.tree.query(np.column_stack((wx.ravel(), wy.ravel())), distance_upper_bound=reach,
+                                         workers=-1 if wx.size >= PARALLEL_QUERY else 1)
             found = k < len(self.index.samples)
             ll = np.full(d.shape, miss)
             kind = self._kind_of_sample[np.where(found, k, 0)]
