@@ -71,7 +71,9 @@ def test_pose_graph_closes_a_loop_with_known_drift():
     assert pose_graph.cost(solved, i, j, z, info) < 0.01 * before
 
 
-def test_pose_graph_outvotes_a_false_loop_on_a_robust_edge():
+def _false_loop_graph():
+    """(true poses, odometry chain, (i, j, z, info), robust) of the square loop with drifting
+    odometry, three true loop edges and one false one, every loop edge robust."""
     true = _square_loop()
     steps, odo = _drifted_chain(true)
     n = len(true)
@@ -84,8 +86,12 @@ def test_pose_graph_outvotes_a_false_loop_on_a_robust_edge():
     # ... and one that matched the wrong place, 2 m off
     i.append(10), j.append(30), z.append(relative(true[10], true[30]) + [2.0, 0.0, 0.0]), info.append(np.diag([400, 400, 1e4]))
     robust.append(True)
-    args = (np.array(i), np.array(j), np.array(z), np.array(info))
-    solved = pose_graph.solve(odo, *args, robust=np.array(robust))
+    return true, odo, (np.array(i), np.array(j), np.array(z), np.array(info)), np.array(robust)
+
+
+def test_pose_graph_outvotes_a_false_loop_on_a_robust_edge():
+    true, odo, args, robust = _false_loop_graph()
+    solved = pose_graph.solve(odo, *args, robust=robust)
     plain = pose_graph.solve(odo, *args)
     assert _rmse(solved, true) < 0.15
     assert _rmse(plain, true) > 2 * _rmse(solved, true)  # without the kernel the false loop bends the square

@@ -9,6 +9,8 @@ import re
 import pytest
 
 from fuzzybrep import cli
+
+from _cli import fails
 from fuzzybrep.errors import MapFileError
 from fuzzybrep.fuzzy.map import FuzzyBRepMap
 from fuzzybrep.formats.mapfile import read_map
@@ -18,16 +20,6 @@ def flaser(ranges, pose=(1.0, 2.0, 0.5), t=10.0) -> str:
     r = " ".join(str(x) for x in ranges)
     x, y, th = pose
     return f"FLASER {len(ranges)} {r} {x} {y} {th} {x} {y} {th} {t} host {t}\n"
-
-
-def fails(capsys, argv, *words) -> str:
-    """Run the CLI, expect exit status 2 and one error line holding every word."""
-    assert cli.main([str(a) for a in argv]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    for w in words:
-        assert w in err, err
-    return err
 
 
 @pytest.mark.parametrize("command, extra", [("build", ["--out", "m.json", "--quiet"]), ("grid", ["--out", "g"]),

@@ -12,15 +12,7 @@ import pytest
 
 from fuzzybrep import cli
 
-
-def fails(capsys, argv, *words) -> str:
-    """Run the CLI, expect exit status 2 and one error line holding every word, nothing before it."""
-    assert cli.main([str(a) for a in argv]) == 2
-    out = capsys.readouterr()
-    assert out.err.count("\n") == 1 and "Traceback" not in out.err, out.err
-    for w in words:
-        assert w in out.err, out.err
-    return out.err
+from _cli import fails
 
 
 def square(path, **changes) -> dict:

@@ -11,7 +11,7 @@ pytest.importorskip("gtsam")
 
 from fuzzybrep.registration import pose_graph, pose_graph_gtsam  # noqa: E402
 from fuzzybrep.scans.scan import compose, relative, wrap  # noqa: E402
-from test_align import _drifted_chain, _rmse, _square_loop  # noqa: E402
+from test_align import _drifted_chain, _false_loop_graph, _rmse, _square_loop  # noqa: E402
 
 INFO_ODO = np.diag([1 / 0.05 ** 2, 1 / 0.05 ** 2, 1 / math.radians(2) ** 2])
 
@@ -65,22 +65,12 @@ def test_gtsam_holds_the_first_pose():
 
 
 def test_gtsam_outvotes_a_false_loop_on_a_robust_edge():
-    true = _square_loop()
-    steps, odo = _drifted_chain(true)
-    n = len(true)
-    i, j, z, info, robust = list(range(n - 1)), list(range(1, n)), list(steps), [INFO_ODO] * (n - 1), [False] * (n - 1)
-    for a, b in ((0, n - 1), (5, n - 6), (2, n - 3)):
-        i.append(a), j.append(b), z.append(relative(true[a], true[b])), info.append(np.diag([1e4, 1e4, 1e5]))
-        robust.append(True)
-    # ... and one that matched the wrong place, 2 m off
-    i.append(10), j.append(30), z.append(relative(true[10], true[30]) + [2.0, 0.0, 0.0]), info.append(np.diag([400, 400, 1e4]))
-    robust.append(True)
-    args = (np.array(i), np.array(j), np.array(z), np.array(info))
-    solved = pose_graph_gtsam.solve(odo, *args, robust=np.array(robust))
+    true, odo, args, robust = _false_loop_graph()
+    solved = pose_graph_gtsam.solve(odo, *args, robust=robust)
     plain = pose_graph_gtsam.solve(odo, *args)
     assert _rmse(solved, true) < 0.15
     assert _rmse(plain, true) > 2 * _rmse(solved, true)  # without the kernel the false loop bends the square
-    assert _rmse(pose_graph_gtsam.solve_gnc(odo, *args, robust=np.array(robust)), true) < 0.15
+    assert _rmse(pose_graph_gtsam.solve_gnc(odo, *args, robust=robust), true) < 0.15
 
 
 def test_gtsam_rejects_an_edge_to_a_missing_pose_and_passes_an_empty_graph():
