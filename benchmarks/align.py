@@ -78,7 +78,8 @@ def anchor_disagreement(scans, radius: float = 5.0) -> float:
     scans within ``radius`` of it, its three successors left out. The aligned poses keep the first
     pose as it is (the map's frame), so a corrected map turned by this much against its own first
     scan counts, in the anchored RMSE, at every pose (``anchor_floor``)."""
-    from fuzzybrep.registration.align_scans import AlignConfig, _Surfaces
+    from fuzzybrep.registration.config import AlignConfig
+    from fuzzybrep.registration.surfaces import _Surfaces
     from fuzzybrep.registration.segment_match import align
 
     true = np.array([s.pose for s in scans])
@@ -94,7 +95,7 @@ def anchor_disagreement(scans, radius: float = 5.0) -> float:
 
 def surfaces(scans):
     """Every scan's surfaces as the alignment makes them (``consistency`` asks them at any poses)."""
-    from fuzzybrep.registration.align_scans import _Surfaces
+    from fuzzybrep.registration.surfaces import _Surfaces
 
     return _Surfaces(scans, AlignConfig())
 

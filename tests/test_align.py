@@ -147,7 +147,8 @@ def test_refinement_ties_a_key_scan_to_the_scans_either_side_of_it():
     at their poses. A key scan put 7 cm and 1° off comes back to where its neighbours say (the
     simulated floor's scans agree to a centimetre or two at the true poses), and its neighbours'
     own edges do not follow it."""
-    from fuzzybrep.registration.align_scans import _refine_local, _Surfaces
+    from fuzzybrep.registration.loop_closure import _refine_local
+    from fuzzybrep.registration.surfaces import _Surfaces
 
     true, drifted = _demo_floor_run()
     n, moved = 40, 12
@@ -265,7 +266,7 @@ def _scan_of(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spacing: float = 0.
 
 
 def test_a_loop_match_one_bay_along_a_repeating_corridor_has_a_rival():
-    from fuzzybrep.registration.align_scans import _rival
+    from fuzzybrep.registration.loop_closure import _rival
     from fuzzybrep.registration.segment_match import SegmentIndex, align
 
     cfg = AlignConfig()

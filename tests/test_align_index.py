@@ -9,7 +9,8 @@ import pytest
 from scipy.optimize import least_squares
 
 from fuzzybrep.registration import pose_graph
-from fuzzybrep.registration.align_scans import AlignConfig, _Surfaces
+from fuzzybrep.registration.config import AlignConfig
+from fuzzybrep.registration.surfaces import _Surfaces
 from fuzzybrep.scans.scan import Scan, relative
 from fuzzybrep.registration.segment_match import SegmentIndex, _inverse, _solve, transform
 

@@ -81,7 +81,7 @@ def config_from_args(args):
     if getattr(args, "align", False):
         from ..registration.align_scans import AlignConfig
 
-        cfg = replace(cfg, align=AlignConfig(loop_closure=not args.no_loops))
+        cfg = replace(cfg, align=AlignConfig(loop_closure=not args.no_loops, strict=args.strict))
     return cfg
 
 
@@ -165,13 +165,8 @@ def run(args) -> int:
                               f"solved poses by over 3σ" if len(al.loop_chi) else ""))
         if al.calibration is not None and al.calibration.steps:
             align_notes.append(f"--align: {al.calibration.describe()}, taken out of every step")
-        if al.check is not None:
-            verdict = al.check.describe(scans)
-            if not al.check.ok and args.strict:
-                from ..errors import AlignmentError
-
-                raise AlignmentError(f"{args.log}: {verdict} (--strict: no map written)")
-            align_notes.insert(0, ("" if al.check.ok else "WARNING: ") + f"--align: {verdict}")
+        if al.check is not None:  # a failed check with --strict stopped the build already
+            align_notes.insert(0, ("" if al.check.ok else "WARNING: ") + f"--align: {al.check.describe(scans)}")
         if len(poor):
             share = len(poor) / len(scans)
             align_notes.append(f"note: alignment poor for {len(poor)} scan(s) ({100 * share:.1f} %; first: "

@@ -42,15 +42,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..scans.scan import Scan, compose, relative, wrap
+from ..errors import AlignmentError
+from ..scans.scan import Scan, compose, named, relative, wrap
 from . import pose_graph
 from .calibrate_odometry import OdometryCalibration
 from .check import AlignmentCheck, check_alignment
-from .config import HEADING_FLOOR, POSE_FLOOR, AlignConfig, OdometryNoise  # noqa: F401 (the API)
+from .config import POSE_FLOOR, AlignConfig, OdometryNoise  # noqa: F401 (OdometryNoise: the API)
 from .correlative import LikelihoodField
-from .loop_closure import _refine, _refine_local, _rival, _try_loop  # noqa: F401 (tests use _rival)
+from .loop_closure import _refine, _refine_local, _try_loop
 from .segment_match import align
-from .surfaces import _edge_information, _sigma, _subsample, _Surfaces, _well_fixed, scan_points, surface_segments  # noqa: F401
+from .surfaces import _edge_information, _sigma, _subsample, _Surfaces, _well_fixed, likelihood_of
 
 
 @dataclass
@@ -129,13 +130,10 @@ Progress = Callable[[int, int], None]
 def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odometry: np.ndarray | None = None,
                 progress: Progress | None = None) -> AlignResult:
     """Aligned sensor poses (S, 3) of ``scans`` from their odometry (``odometry_of`` unless
-    given): module docstring.
+    given), checked against the scans (``registration.check``): module docstring.
 
-    Cost follows the distance driven, not the scan rate: only the scans the odometry says the
-    robot moved ``motion_distance`` or turned ``motion_turn`` to reach since the last one aligned
-    (and at least every ``motion_every``-th, so that odometry that stopped is still followed)
-    are aligned (``_moving``); a scan between two of them is placed by its odometry from the one
-    before, the two's correction shared out in proportion (``_fill``)."""
+    Every scan is aligned, however little the robot moved: aligning only the scans it moved a few
+    centimetres to reach made the benchmark's logs worse (docs/slam.md)."""
     cfg = config
     odo = odometry_of(scans) if odometry is None else np.asarray(odometry, np.float64).reshape(-1, 3)
     n = len(scans)
@@ -143,66 +141,15 @@ def align_scans(scans: Sequence[Scan], config: AlignConfig = AlignConfig(), odom
         raise ValueError(f"{n} scans but {len(odo)} odometry poses")
     if n == 0:
         return AlignResult(np.zeros((0, 3)), ScanQuality(np.zeros(0), np.zeros(0), np.zeros(0, np.int64)), 0, 0, cfg)
-    moving = _moving(odo, cfg)
-    if len(moving) == n:
-        result = _align(scans, cfg, odo, progress)
-    else:
-        def sub_progress(done, total):
-            progress(int(moving[min(done, len(moving)) - 1]) + 1, n)
-
-        result = _align([scans[i] for i in moving], cfg, odo[moving], sub_progress if progress else None)
-        before = np.searchsorted(moving, np.arange(n), side="right") - 1
-        q = result.quality
-        result.quality = ScanQuality(q.inliers[before], q.sigma[before], q.matches[before])
-        result.poses = _fill(odo, moving, result.poses)
-        if progress:
-            progress(n, n)
-    result.check = check_alignment(scans, result.poses) if cfg.check else None
+    result = _align(scans, cfg, odo, progress)
+    result.check = check_alignment(scans, result.poses) if cfg.check or cfg.strict else None
+    if cfg.strict and not result.check.ok:  # before a map is built from poses known to be wrong
+        raise AlignmentError(f"{named(scans)}: {result.check.describe(scans)} (strict: no map made)")
     return result
 
 
-def _moving(odo: np.ndarray, cfg: AlignConfig) -> np.ndarray:
-    """Indices of the scans to align: the first, and each one the odometry has moved
-    ``motion_distance`` or turned ``motion_turn`` from the last one chosen, or ``motion_every``
-    scans after it (in order; a loop over scans, but one comparison each)."""
-    n = len(odo)
-    if cfg.motion_distance <= 0 and cfg.motion_turn <= 0:
-        return np.arange(n)
-    out = [0]
-    lx, ly, lt = odo[0]
-    d2, turn, every = cfg.motion_distance ** 2, cfg.motion_turn, max(cfg.motion_every, 1)
-    for k in range(1, n):
-        x, y, t = odo[k]
-        if ((x - lx) ** 2 + (y - ly) ** 2 >= d2 or abs((t - lt + math.pi) % (2 * math.pi) - math.pi) >= turn
-                or k - out[-1] >= every):
-            out.append(k)
-            lx, ly, lt = x, y, t
-    return np.asarray(out, np.int64)
-
-
-def _fill(odo: np.ndarray, moving: np.ndarray, aligned: np.ndarray) -> np.ndarray:
-    """Every scan's pose from the aligned ones (``moving``): scan k after aligned scan a (and before
-    b) is at a ⊕ (its odometry from a + t × the correction the alignment made to a → b), t its
-    share of the scans from a to b; after the last aligned scan, its odometry from it."""
-    n = len(odo)
-    poses = np.empty((n, 3))
-    poses[moving] = aligned
-    a_i = np.searchsorted(moving, np.arange(n), side="right") - 1
-    a = moving[a_i]
-    b = moving[np.minimum(a_i + 1, len(moving) - 1)]
-    rest = np.setdiff1d(np.arange(n), moving)
-    if not len(rest):
-        return poses
-    ar, br = a[rest], b[rest]
-    corr = relative(poses[ar], poses[br]) - relative(odo[ar], odo[br])
-    corr[:, 2] = wrap(corr[:, 2])
-    t = np.where(br > ar, (rest - ar) / np.maximum(br - ar, 1), 0.0)
-    poses[rest] = compose(poses[ar], relative(odo[ar], odo[rest]) + t[:, None] * corr)
-    return poses
-
-
 def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: Progress | None) -> AlignResult:
-    """``align_scans`` on scans that are all aligned (module docstring)."""
+    """``align_scans`` before the check: the front end, the loops and the refinement."""
     n = len(scans)
     poses = np.zeros((n, 3))
     surf = _Surfaces(scans, cfg)
@@ -215,7 +162,7 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
     ei, ej, ez, einfo, robust = [], [], [], [], []
     loops = optimisations = 0
     last_try = last_loop = 0.0
-    index, index_keys, field_ = None, None, None
+    index, index_keys = None, None
     backwards = False  # the odometry reports the robot's travel reversed (``_direction``)
     recent: list = []
     calibration = OdometryCalibration()
@@ -233,15 +180,13 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
         window = tuple(keys[-cfg.window:])
         if window != index_keys:
             index, index_keys = surf.index(window, poses), window
-            field_ = None  # made when a scan first needs the search (most never do)
         if len(index) and len(pts) >= 4:
             res = align(pts, index, guess, width=cfg.width, start_width=cfg.start_width, prior=(guess, prior_info),
                         max_iterations=cfg.iterations)
             if cfg.search_sigmas and res.inlier_share < cfg.search_below:
                 # the odometry's guess was not good enough a start: search its window, refine from
                 # the best pose found, keep whichever explains more of the scan
-                if field_ is None:
-                    field_ = LikelihoodField(index.samples, cfg.search_resolution, cfg.search_sigma)
+                field_ = likelihood_of(index, cfg.search_resolution, cfg.search_sigma)
                 start = _search(field_, pts, guess, prior_info, cfg)
                 alt = align(pts, index, start, width=cfg.width, start_width=cfg.start_width, prior=(start, prior_info),
                             max_iterations=cfg.iterations)
@@ -261,9 +206,10 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
             poses[k], inliers[k], matches[k] = guess, 0.0, 0
             cov = np.linalg.inv(prior_info)
             sigma[k] = _sigma(cov)
+        moved = relative(poses[k - 1], poses[k])
         if cfg.direction_check:
-            fixed_along = bool(matches[k]) and _fixed_along(steps[k - 1], res.information, poses[k - 1, 2], cfg)
-            recent = recent[-cfg.direction_steps + 1:] + [(steps[k - 1, 0], relative(poses[k - 1], poses[k])[0], fixed_along)]
+            fixed_along = bool(matches[k]) and _fixed_along(res.information, poses[k - 1, 2], cfg)
+            recent = recent[-cfg.direction_steps + 1:] + [(steps[k - 1, 0], moved[0], fixed_along)]
             flip = _direction(recent, cfg)
             if abs(steps[k - 1, 0]) < cfg.direction_stop and abs(steps[k - 1, 2]) < cfg.direction_stop_turn:
                 flip = False  # a robot that stopped starts again the way its odometry says
@@ -271,7 +217,7 @@ def _align(scans: Sequence[Scan], cfg: AlignConfig, odo: np.ndarray, progress: P
                 backwards, fixed = flip, None  # no calibration stretch across a reversal
         ei.append(k - 1)
         ej.append(k)
-        ez.append(relative(poses[k - 1], poses[k]))
+        ez.append(moved)
         einfo.append(_edge_information(cov, poses[k - 1, 2]))
         robust.append(False)
         last = poses[keys[-1]]
@@ -347,7 +293,7 @@ def _direction(recent: list, cfg: AlignConfig) -> bool | None:
     return None
 
 
-def _fixed_along(step: np.ndarray, information: np.ndarray, heading: float, cfg: AlignConfig) -> bool:
+def _fixed_along(information: np.ndarray, heading: float, cfg: AlignConfig) -> bool:
     """Whether a match's ``information`` fixes the robot's position along its heading (the
     direction it drives) to ``direction_sigma``."""
     w = np.array([math.cos(heading), math.sin(heading)])

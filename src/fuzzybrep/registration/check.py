@@ -93,11 +93,12 @@ class AlignmentCheck:
                 + "; the map is wrong there")
 
 
-def _polar(scan: Scan, max_range: float) -> tuple[np.ndarray, np.ndarray]:
-    """(bearings (n,), ranges (n,)) of a scan's beams, a beam with no return reaching max_range
-    (it saw nothing that near)."""
+def _polar(scan: Scan, max_range: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(bearings (n,), ranges (n,), bearing step) of a scan's beams, a beam with no return reaching
+    max_range (it saw nothing that near)."""
     r = np.where(scan.returns, np.minimum(scan.ranges, max_range), max_range)
-    return scan.bearings, r
+    step = float(np.median(np.diff(scan.bearings))) if len(scan.bearings) > 1 else 0.0
+    return scan.bearings, r, step
 
 
 def check_alignment(scans: Sequence[Scan], poses: np.ndarray, config: CheckConfig = CheckConfig()) -> AlignmentCheck:
@@ -108,6 +109,7 @@ def check_alignment(scans: Sequence[Scan], poses: np.ndarray, config: CheckConfi
     sel = np.arange(0, n, max(cfg.every, 1))
     tree = cKDTree(poses[sel, :2]) if len(sel) else None
     checked, shares = [], []
+    polar: dict[int, tuple] = {}  # a scan is the other pass of several checked scans: its beams once
     for k in sel:
         s = scans[k]
         ok = s.returns & (s.ranges <= cfg.max_range)
@@ -128,10 +130,11 @@ def check_alignment(scans: Sequence[Scan], poses: np.ndarray, config: CheckConfi
             d = world - poses[j, :2]
             rng = np.hypot(d[:, 0], d[:, 1])
             bearing = wrap(np.arctan2(d[:, 1], d[:, 0]) - poses[j, 2])
-            bj, rj = _polar(o, cfg.max_range)
+            if j not in polar:
+                polar[j] = _polar(o, cfg.max_range)
+            bj, rj, step = polar[j]
             if len(bj) < 2:
                 continue
-            step = float(np.median(np.diff(bj)))
             idx = np.rint((bearing - bj[0]) / step).astype(np.int64)
             inside = (idx >= 0) & (idx < len(bj)) & (rng < cfg.max_range - cfg.margin)
             # the beam and both neighbours must reach beyond the point: a return on the edge of an

@@ -41,14 +41,6 @@ class OdometryNoise:
 class AlignConfig:
     """Knobs of ``align_scans`` (metres and radians; module docstring)."""
 
-    #: only scans the odometry moved motion_distance or turned motion_turn to reach since the last
-    #: one aligned are aligned, and at least every motion_every-th (``align_scans``); 0 and 0 (the
-    #: default): every scan. Measured on the benchmark's raw logs (docs/slam.md): 0.05 m and 1°
-    #: aligns 54 % of aces's scans and 85 % of fr079's, and their mean error doubles (aces 0.038 →
-    #: 0.096 m, fr079 0.043 → 0.102 m); even 1 cm and 0.5° (65 % of aces) costs aces 0.038 → 0.045 m
-    motion_distance: float = 0.0
-    motion_turn: float = 0.0
-    motion_every: int = 10
     window: int = 16  #: key scans in the local map
     key_distance: float = 0.5
     key_turn: float = math.radians(10.0)
@@ -108,6 +100,7 @@ class AlignConfig:
     refine_local: int = 4
     refine_local_every: float = 1.0  #: ... once per this much travel
     check: bool = True  #: check the aligned poses against the scans at the end (``registration.check``)
+    strict: bool = False  #: ... and raise AlignmentError when they fail it (``build --align --strict``)
     poor_inliers: float = 0.5
     poor_sigma: float = 0.10
     #: correlative search before each scan's match (``registration.correlative``): the window is

@@ -86,8 +86,8 @@ class LikelihoodField:
 
         angle_step  default: the rotation that moves the farthest endpoint by one cell.
         prior_information  (3, 3) or None: the score is then mean likelihood − prior_weight ×
-              ((p − guess)ᵀ Ω (p − guess), the heading wrapped), capped so that a pose at the
-              window's edge loses at most 4 × prior_weight ... (a weak tie-breaker, module docstring).
+              min((p − guess)ᵀ Ω (p − guess), 25): a weak tie-breaker that costs a pose 5σ or more
+              away at most 25 × prior_weight (module docstring).
         """
         pts = np.asarray(points, np.float64).reshape(-1, 2)
         guess = np.asarray(guess, np.float64)

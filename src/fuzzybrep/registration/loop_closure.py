@@ -11,9 +11,8 @@ import numpy as np
 
 from ..scans.scan import relative
 from .config import AlignConfig
-from .correlative import LikelihoodField
 from .segment_match import SegmentIndex, align, transform
-from .surfaces import _edge_information, _subsample, _Surfaces
+from .surfaces import _edge_information, _subsample, _Surfaces, likelihood_of
 
 
 def _refine(poses: np.ndarray, keys: list[int], travel: np.ndarray, surf: _Surfaces, cfg: AlignConfig,
@@ -151,9 +150,7 @@ def _try_loop(k: int, pts: np.ndarray, poses: np.ndarray, keys: list[int], trave
         # search the window the drift allows before refining (Olson; Cartographer's constraint
         # builder): the Gauss-Newton match from the current estimate is drawn in from a metre or
         # two, the heading's drift since the place is often more (degrees over tens of metres)
-        field_ = getattr(index, "likelihood", None)
-        if field_ is None:
-            field_ = index.likelihood = LikelihoodField(index.samples, cfg.loop_search_resolution, cfg.search_sigma * 2)
+        field_ = likelihood_of(index, cfg.loop_search_resolution, cfg.search_sigma * 2)
         since = min(travel[k] - travel[j], since_loop)
         angle = min(cfg.search_angle + cfg.loop_search_turn * since, cfg.search_max_angle)
         found = field_.search(_subsample(pts, cfg.search_points), poses[k], radius, angle)

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..scans.scan import Scan
 from .config import HEADING_FLOOR, POSE_FLOOR, AlignConfig
+from .correlative import LikelihoodField
 from .segment_match import SegmentIndex, sample_segments
 
 
@@ -160,3 +161,14 @@ def _edge_information(cov: np.ndarray, heading: float, information: bool = False
         return (out + out.T) / 2 + np.eye(3) * 1e-9
     cov = np.where(np.isfinite(cov), cov, 0.0)
     return np.linalg.inv(R @ cov @ R.T + floor)
+
+
+def likelihood_of(index: SegmentIndex, resolution: float, sigma: float) -> LikelihoodField:
+    """The likelihood field of a local map's samples (``correlative``), made when first asked for
+    and kept with the index: an index lives as long as its key scans stay where they are, and most
+    indices are never searched."""
+    kept = index.__dict__.setdefault("_likelihood", {})
+    key = (resolution, sigma)
+    if key not in kept:
+        kept[key] = LikelihoodField(index.samples, resolution, sigma)
+    return kept[key]
