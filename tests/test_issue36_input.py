@@ -237,5 +237,5 @@ def test_geojson_from_a_device_is_read_with_a_bound(monkeypatch):
     from fuzzybrep.formats import geojson as G
 
     monkeypatch.setattr(G, "MAX_GEOJSON_BYTES", 2**20)
-    with pytest.raises(G.FormatLimitError, match="more than 1 MiB"):
+    with pytest.raises(G.MapFileError, match="more than 1 MiB"):
         G.geojson_text("/dev/zero")

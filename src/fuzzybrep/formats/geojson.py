@@ -23,7 +23,7 @@ import shapely
 
 from ..brep import BRepMap, locate_vertex, validate_ring
 from ..errors import FormatLimitError, GeometryError, MapFileError
-from .files import loads_json
+from .files import loads_json, read_limited
 
 
 #: the largest GeoJSON file read, and the most positions ([x, y]) it may hold: checked before
@@ -36,19 +36,11 @@ MAX_GEOJSON_POSITIONS = 5_000_000
 
 def geojson_text(path: str | os.PathLike) -> str:
     """The text of a GeoJSON file (a byte-order mark, as Windows tools write, dropped), or
-    FormatLimitError when it is larger than MAX_GEOJSON_BYTES or holds more than
-    MAX_GEOJSON_POSITIONS positions (every position opens a '[': counted before parsing).
-    OSError and UnicodeDecodeError as reading raises them."""
-    path = Path(path)
-    size = path.stat().st_size
-    if size > MAX_GEOJSON_BYTES:
-        raise FormatLimitError(f"the file is {size / 2**20:.0f} MiB; GeoJSON is read up to {MAX_GEOJSON_BYTES // 2**20} MiB")
-    # a device or a FIFO says size 0: read a chunk at a time, one byte past the limit at most
-    with path.open("rb") as fh:
-        raw = fh.read(MAX_GEOJSON_BYTES + 1)
-    if len(raw) > MAX_GEOJSON_BYTES:
-        raise FormatLimitError(f"the file holds more than {MAX_GEOJSON_BYTES // 2**20} MiB; GeoJSON is read up to "
-                               f"{MAX_GEOJSON_BYTES // 2**20} MiB")
+    MapFileError naming the file when it cannot be read or holds more than MAX_GEOJSON_BYTES
+    (``files.read_limited``: a device or a FIFO is read one byte past the limit at most), or
+    FormatLimitError when it holds more than MAX_GEOJSON_POSITIONS positions (every position opens
+    a '[': counted before parsing). UnicodeDecodeError as decoding raises it."""
+    raw = read_limited(path, MAX_GEOJSON_BYTES, "GeoJSON")
     brackets = raw.count(b"[")
     if brackets > MAX_GEOJSON_POSITIONS + 1000:  # every position has one; rings and polygons a few more
         raise FormatLimitError(f"the file holds about {brackets} positions; GeoJSON is read with up to "

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from ..errors import FormatLimitError, WorldError
+from ..errors import FormatLimitError, MapFileError, WorldError
 from ..formats.files import loads_json, write_atomic
 from ..formats.geojson import geojson_text
 
@@ -199,8 +199,8 @@ def _read_geojson(path: str | os.PathLike) -> tuple[list[tuple[int, dict]], floa
     """Features as (1-based index, {"geometry": shapely, "properties": dict}) and the unit scale."""
     try:
         doc = loads_json(geojson_text(path))  # size-checked before parsing; a byte-order mark is no JSON error
-    except OSError as e:
-        raise WorldError(f"cannot read: {e.strerror or e}", path) from None
+    except MapFileError as e:  # unreadable, or larger than GeoJSON is read
+        raise WorldError(e.reason, path) from None
     except FormatLimitError as e:
         raise WorldError(str(e), path) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
