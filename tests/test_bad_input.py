@@ -369,7 +369,7 @@ def pose_beyond_any_grid(k, ranges, pose):
 @pytest.mark.parametrize("corrupt, words", [
     # before: NumPy failing to allocate 10 TiB (or an IndexError for 1e300), after reading the whole log
     (far_range, ["a.log:3: beam 4's return lies 1e+05 m from the median scan position",
-                 "an evidence grid of about 1732059 × 1000184 cells at 0.05 m (limit 40000000"]),
+                 "an evidence grid of about 1732059 × 1000184 cells at 0.05 m (limit 68719476736"]),
     (far_pose, ["a.log:2: the scan's position (100000, 0) lies 1e+05 m from the median scan position"]),
     (pose_beyond_any_grid, ["a.log:2: the scan's position (1e+300, 0) lies 1e+300 m from the median scan position",
                             "about 2e+301 × 63 cells"]),
@@ -404,6 +404,42 @@ def test_scans_all_beyond_a_float_placing_a_cell(tmp_path, capsys):
     room_log(log, lambda k, ranges, pose: pose.__setitem__(0, 1e12 + 0.1 * k))  # far, but a float still holds it
     assert cli.main(["build", str(log), "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
 
+
+
+def test_two_places_a_kilometre_apart_are_one_map_not_a_corrupt_pose(tmp_path):
+    # before: refused, "an evidence grid of about 30063 × 30063 cells (limit 40000000)": the frame
+    # limit held a site to 300 m across (a benchmark log's 300 m loop with drift was refused), and
+    # the glass bridge took a bitmap over the whole box of occupied cells (1.8 GB for two copies of
+    # Intel 2 km apart). Only the tiles rays cross are stored: the site is as cheap as its rooms
+    from fuzzybrep.mapping.build import build_map
+    from fuzzybrep.scans.read import read_scans
+
+    log = tmp_path / "two.log"
+    rooms = [flaser([1.5] * 9 + [9.0], (0.1 * k, 0.0, 0.0), k) for k in range(4)]
+    rooms += [flaser([1.5] * 9 + [9.0], (1500.0 + 0.1 * k, 1500.0, 0.0), 10 + k) for k in range(4)]
+    log.write_text("".join(rooms))
+    crisp = build_map(read_scans(log)).crisp
+    assert len(crisp.regions) == 2
+    one = build_map(read_scans(log)[:4]).crisp
+    assert crisp.area == pytest.approx(2 * one.area, rel=0.02)
+
+
+def test_the_glass_bridge_in_blocks_marks_what_one_bitmap_marks(monkeypatch):
+    import numpy as np
+    from fuzzybrep.mapping import bridge
+
+    rng = np.random.default_rng(3)
+    for r in (2.5, 6.2, 9.0):
+        ix, iy = rng.integers(0, 600, 2500), rng.integers(0, 500, 2500)
+        key = np.unique(iy * 1000 + ix)
+        iy, ix = np.divmod(key, 1000)
+        whole = bridge.segment_cells(ix, iy, r)
+        monkeypatch.setattr(bridge, "BOX_CELLS", 100)
+        monkeypatch.setattr(bridge, "BLOCK", 37)
+        blocks = bridge.segment_cells(ix, iy, r)
+        monkeypatch.undo()
+        assert len(whole[0]) > 100
+        assert sorted(zip(*map(list, whole))) == sorted(zip(*map(list, blocks)))
 
 @pytest.mark.parametrize("command", ["build", "grid"])
 def test_a_log_in_millimetres_is_told_to_be_in_metres(tmp_path, capsys, command):

@@ -187,25 +187,36 @@ def ray_batches(scans: Sequence[Scan], beams, cfg: evidence.EvidenceConfig) -> e
     return evidence.RayBatches(make, len(bounds) - 1, times)
 
 
+#: a log whose returns' median range is farther than this is not in metres (``check_extent``)
+MAX_MEDIAN_RANGE = 200.0
+
+
 def check_extent(scans: Sequence[Scan], rays: "Rays | evidence.RayBatches", cell: float, unit: str = "m"):
     """The evidence grid's frame (``evidence.grid_frame``) over ``rays``, for ``evidence.gather``.
 
     ScanValueError naming the scan (and the beam) that lies farthest out when the grid would hold
-    more than evidence.MAX_CELLS cells (farthest from the median scan position), or reach beyond
+    more than evidence.MAX_CELLS cells or evidence.MAX_SIDE a side (farthest from the median scan position), or reach beyond
     evidence.MAX_CELLS_FROM_ZERO cells (farthest from (0, 0)): a corrupt range or pose otherwise
     ended in NumPy failing to allocate terabytes, or an IndexError."""
     frame = origin, nx, ny = evidence.grid_frame(rays, cell)
     reach = max(np.abs(origin).max(), abs(origin[0] + nx * cell), abs(origin[1] + ny * cell))
-    if nx * ny > evidence.MAX_CELLS:
+    if nx * ny > evidence.MAX_CELLS or max(nx, ny) > evidence.MAX_SIDE:
         centre, where = np.median([s.pose[:2] for s in scans], axis=0), "the median scan position"
         why = f"an evidence grid of about {cell_count_text(nx)} × {cell_count_text(ny)} cells at {cell:g} {unit} " \
-              f"(limit {evidence.MAX_CELLS}) would hold it"
+              f"(limit {evidence.MAX_CELLS}, {evidence.MAX_SIDE} a side) would hold it"
     elif reach > evidence.MAX_CELLS_FROM_ZERO * cell:
         centre, where = np.zeros(2), "(0, 0)"
         why = f"a float places a {cell:g} {unit} cell of the evidence grid only within " \
               f"±{evidence.MAX_CELLS_FROM_ZERO * cell:.3g} {unit} of (0, 0)"
     else:
-        return frame
+        ranges = np.concatenate([s.ranges[s.returns] for s in scans]) if scans else np.zeros(0)
+        median = float(np.median(ranges)) if len(ranges) else 0.0
+        if median <= MAX_MEDIAN_RANGE or unit != "m":
+            return frame
+        # no 2-D laser's returns lie hundreds of metres off in the middle: a log in millimetres
+        # (whose frame the limits above no longer catch: a site kilometres across is legal)
+        raise ScanValueError(named(scans), None, f"the median range of the returns is {median:.4g} {unit}, over "
+                                                 f"{MAX_MEDIAN_RANGE:g} {unit}: are the ranges corrupt, or the log not in metres?")
     what, d, source = farthest_out(scans, centre)
     # a log in millimetres lands here too (every setting of the build is metric): say so
     raise ScanValueError(source, None, f"{what} lies {d:.3g} {unit} from {where}: {why}; is the range or the pose corrupt, "

@@ -353,11 +353,11 @@ def _parallel(fn, jobs):
         yield from ex.map(fn, jobs)
 
 
-#: the evidence grid's frame spans at most this many cells. Only the tiles where rays pass are
-#: stored (``cells``: some 30 bytes a stored cell), so the frame costs little itself; the limit
-#: is a plausibility check that names a corrupt range or pose (the real logs' frames span
-#: 0.3-1.3 million cells indoors, 37.5 million on freiburg-campus, whose returns reach 80 m)
-MAX_CELLS = 40_000_000
+#: the frame's cells at most, and MAX_SIDE a side: only tiles rays pass are stored (``cells``), the
+#: frame costs a table of tiles (84 MB at the limit), so this only names a corrupt pose (2^36: 13 km
+#: across at 5 cm; freiburg-campus 37.5 M, a 300 m loop with drift 45 M: the old limit was 40 M)
+MAX_CELLS = 1 << 36
+MAX_SIDE = 1 << 19
 #: coordinates at most this many cells from (0, 0): a float holds 1 part in 2**52, so beyond it
 #: resolves a coordinate to worse than 1/64 of a cell (at 1e15 m no free space was left; at 1e300
 #: samples fell outside the grid, an IndexError); 3.5e12 m for 5 cm cells
